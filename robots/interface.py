@@ -1,0 +1,57 @@
+"""The robot interface the exploration loop depends on (simulation and hardware alike)."""
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class GuardedMoveResult:
+    """Outcome of :meth:`Robot.guarded_move`.
+
+    Attributes
+    ----------
+    stopped : bool
+        True when the ``stop`` predicate fired before the path ended.
+    q : (dof,) float
+        Joint positions (radians) where the motion ended.
+    waypoint_index : int
+        Index of the path waypoint being tracked when the motion ended.
+    """
+
+    stopped: bool
+    q: np.ndarray
+    waypoint_index: int
+
+
+class Robot(abc.ABC):
+    """An arm that reports joint positions and moves; simulated or real."""
+
+    @property
+    @abc.abstractmethod
+    def dof(self) -> int:
+        """Number of actuated joints."""
+
+    @abc.abstractmethod
+    def joint_positions(self) -> np.ndarray:
+        """Actuated joint positions as encoders report them, (dof,) float, radians."""
+
+    @abc.abstractmethod
+    def move_joints(self, q: np.ndarray, speed_rad_s: float = 1.0) -> None:
+        """Move to ``q`` ((dof,) radians) and return when reached."""
+
+    @abc.abstractmethod
+    def guarded_move(
+        self, path: np.ndarray, stop: Callable[[], bool], speed_rad_s: float = 0.2
+    ) -> GuardedMoveResult:
+        """Follow ``path`` ((k, dof) radians), calling ``stop()`` every control tick.
+
+        Halts (holding position) as soon as ``stop()`` returns True.
+        """
+
+    @abc.abstractmethod
+    def time_s(self) -> float:
+        """The robot's clock, seconds (simulation time or host monotonic time)."""
