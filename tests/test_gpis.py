@@ -1,0 +1,236 @@
+"""GPIS against closed forms (a sphere) and against itself (incremental vs refit, float32 vs float64)."""
+import warnings
+
+import numpy as np
+import pytest
+
+from reconstruction.gpis import GPIS
+
+RADIUS = 0.05
+BOUNDS = ((-0.08, -0.08, -0.08), (0.08, 0.08, 0.08))
+
+
+def sphere_contacts(n, seed=0, radius=RADIUS):
+    v = np.random.default_rng(seed).normal(size=(n, 3))
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    return radius * v, v
+
+
+def random_directions(n, seed):
+    v = np.random.default_rng(seed).normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+@pytest.fixture(scope="module")
+def sphere_gp():
+    points, normals = sphere_contacts(100)
+    return GPIS(noise=1e-4, normal_noise=0.01, bounds=BOUNDS).fit(points, normals)
+
+
+def test_mean_is_zero_and_gradient_inward_at_contacts(sphere_gp):
+    points, normals = sphere_contacts(100)
+    assert np.abs(sphere_gp.mean(points)).max() < 5e-5
+    grad = sphere_gp.gradient(points)
+    cos = np.sum(grad * -normals, axis=1) / np.linalg.norm(grad, axis=1)
+    assert np.degrees(np.arccos(np.clip(cos, -1, 1))).max() < 1.5
+
+
+def test_sign_convention_positive_inside_negative_outside(sphere_gp):
+    d = random_directions(200, 3)
+    assert np.all(sphere_gp.mean(0.5 * RADIUS * d) > 0)
+    assert np.all(sphere_gp.mean(1.4 * RADIUS * d) < 0)
+
+
+def test_gradient_matches_finite_differences_of_the_mean(sphere_gp):
+    x = 0.07 * np.random.default_rng(4).uniform(-1, 1, (20, 3))
+    h = 1e-4
+    fd = np.stack([(sphere_gp.mean(x + e) - sphere_gp.mean(x - e)) / (2 * h)
+                   for e in np.eye(3) * h], axis=1)
+    np.testing.assert_allclose(sphere_gp.gradient(x), fd, atol=2e-3)
+
+
+def test_float32_mean_matches_float64_posterior(sphere_gp):
+    x = 0.07 * np.random.default_rng(5).uniform(-1, 1, (300, 3))
+    gp = sphere_gp
+    alpha = gp._factor.solve_upper(gp._factor.solve_lower(gp._y))
+    exact = gp.cross_covariance(x).T @ alpha
+    assert np.abs(gp.mean(x) - exact).max() < 2e-6
+
+
+def test_sphere_mesh_matches_closed_form(sphere_gp):
+    mesh = sphere_gp.mesh(resolution=64)
+    assert mesh.is_watertight
+    radial_error = np.linalg.norm(mesh.vertices, axis=1) - RADIUS
+    assert np.sqrt(np.mean(radial_error**2)) < 2e-4
+    assert mesh.volume == pytest.approx(4 / 3 * np.pi * RADIUS**3, rel=0.02)
+    outward = np.sum(mesh.face_normals * mesh.triangles_center, axis=1) > 0
+    assert outward.mean() > 0.999
+
+
+def test_mesh_vertices_lie_on_the_zero_level(sphere_gp):
+    mesh = sphere_gp.mesh(resolution=96)
+    assert np.abs(sphere_gp.mean(mesh.vertices)).max() < 1e-4
+
+
+def test_classic_gpis_without_normals_finds_the_sphere():
+    points, _ = sphere_contacts(100)
+    gp = GPIS(use_normals=False, noise=1e-3, bounds=BOUNDS).fit(points)
+    assert gp.n_rows == 100 + 15
+    mesh = gp.mesh(resolution=48)
+    err = np.linalg.norm(mesh.vertices, axis=1) - RADIUS
+    assert np.sqrt(np.mean(err**2)) < 3e-3
+    assert gp.mean(np.zeros((1, 3)))[0] > 0
+
+
+def test_variance_is_non_negative_and_shrinks_near_observations(sphere_gp):
+    rng = np.random.default_rng(6)
+    x = rng.uniform(-0.08, 0.08, (2000, 3))
+    var = sphere_gp.variance(x)
+    assert var.min() >= -1e-12
+    points, _ = sphere_contacts(100)
+    at_contacts = sphere_gp.variance(points)
+    far = sphere_gp.variance(np.array([[0.08, 0.08, 0.08]]))
+    assert at_contacts.max() < 1e-3 * far[0]
+    assert at_contacts.max() < var.max()
+
+
+def test_adding_a_contact_lowers_the_variance_there():
+    points, normals = sphere_contacts(30)
+    gp = GPIS(bounds=BOUNDS).fit(points, normals)
+    new = np.array([[0.0, 0.0, RADIUS]])
+    before = gp.variance(new)[0]
+    gp.add(new[0], np.array([0.0, 0.0, 1.0]))
+    after = gp.variance(new)[0]
+    assert after < 0.1 * before
+    assert after < 2 * gp.noise**2
+
+
+@pytest.mark.parametrize("use_normals", [True, False])
+def test_incremental_add_equals_refit(use_normals):
+    points, normals = sphere_contacts(40, seed=2)
+    ref = GPIS(use_normals=use_normals, bounds=BOUNDS).fit(points, normals)
+    inc = GPIS(use_normals=use_normals, bounds=BOUNDS).fit(points[:25], normals[:25])
+    for p, n in zip(points[25:], normals[25:]):
+        inc.add(p, n if use_normals else None)
+    x = 0.07 * np.random.default_rng(7).uniform(-1, 1, (200, 3))
+    np.testing.assert_allclose(inc.mean(x), ref.mean(x), atol=2e-6)
+    np.testing.assert_allclose(inc.gradient(x), ref.gradient(x), atol=2e-5)
+    np.testing.assert_allclose(inc.variance(x), ref.variance(x), atol=1e-10)
+
+
+def test_variance_tracker_matches_full_recomputation():
+    points, normals = sphere_contacts(60, seed=3)
+    gp = GPIS(bounds=BOUNDS).fit(points[:20], normals[:20])
+    candidates = 0.06 * random_directions(500, 8)
+    tracker = gp.variance_tracker(candidates)
+    tracker.variance()
+    for p, n in zip(points[20:], normals[20:]):
+        gp.add(p, n)
+        got = tracker.variance()
+    np.testing.assert_allclose(got, gp.variance(candidates), rtol=1e-6, atol=1e-12)
+    gp.fit(points[:10], normals[:10])  # a refit must be noticed
+    np.testing.assert_allclose(tracker.variance(), gp.variance(candidates), rtol=1e-6, atol=1e-12)
+
+
+def test_reference_kernel_is_solved_and_fits_the_sphere():
+    points, normals = sphere_contacts(80)
+    gp = GPIS(kernel="thin_plate_reference", bounds=BOUNDS).fit(points, normals)
+    assert np.abs(gp.mean(points)).max() < 1e-3
+    mesh = gp.mesh(resolution=48)
+    err = np.linalg.norm(mesh.vertices, axis=1) - RADIUS
+    assert np.sqrt(np.mean(err**2)) < 2e-3
+    gp.add(np.array([RADIUS, 0, 0]), np.array([1.0, 0, 0]))
+    assert gp.n_contacts == 81
+
+
+def test_squared_exponential_kernel_fits_the_sphere():
+    points, normals = sphere_contacts(150)
+    gp = GPIS(kernel="squared_exponential", bounds=BOUNDS).fit(points, normals)
+    assert np.abs(gp.mean(points)).max() < 1e-3
+
+
+def test_without_bounds_the_radius_grows_with_a_warning():
+    points, normals = sphere_contacts(20)
+    gp = GPIS().fit(points * 0.5, normals)
+    radius = gp.kernel.radius_m
+    with pytest.warns(RuntimeWarning, match="refitting"):
+        gp.add(np.array([0.3, 0.0, 0.0]), np.array([1.0, 0, 0]))
+    assert gp.kernel.radius_m > radius
+    assert gp.n_contacts == 21
+
+
+# --------------------------------------------------------------------- bad input
+def test_empty_input_is_rejected():
+    with pytest.raises(ValueError, match="no contact points"):
+        GPIS().fit(np.zeros((0, 3)), np.zeros((0, 3)))
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_non_finite_points_are_rejected(bad):
+    points, normals = sphere_contacts(5)
+    points[2, 1] = bad
+    with pytest.raises(ValueError, match="NaN or inf"):
+        GPIS().fit(points, normals)
+
+
+def test_zero_normals_are_rejected_and_others_normalised():
+    points, normals = sphere_contacts(10)
+    bad = normals.copy()
+    bad[3] = 0
+    with pytest.raises(ValueError, match=r"normals \[3\] are zero"):
+        GPIS().fit(points, bad)
+    scaled = GPIS(bounds=BOUNDS).fit(points, normals * 3.0)
+    unit = GPIS(bounds=BOUNDS).fit(points, normals)
+    x = np.zeros((1, 3))
+    np.testing.assert_allclose(scaled.mean(x), unit.mean(x), rtol=1e-6)
+
+
+@pytest.mark.parametrize("points_shape, normals_shape", [((5, 2), (5, 3)), ((5, 3), (4, 3)),
+                                                         ((3,), (3,))])
+def test_mismatched_shapes_are_rejected(points_shape, normals_shape):
+    with pytest.raises(ValueError, match="shape"):
+        GPIS().fit(np.ones(points_shape), np.ones(normals_shape))
+
+
+def test_missing_normals_are_rejected():
+    with pytest.raises(ValueError, match="needs normals"):
+        GPIS().fit(np.ones((4, 3)))
+
+
+def test_duplicate_contacts_are_repeated_measurements():
+    """Documented handling: duplicates are kept; the noise term keeps the system well posed and
+    the surface equals the one from the unique contacts up to the halved noise."""
+    points, normals = sphere_contacts(50)
+    dup = GPIS(bounds=BOUNDS).fit(np.vstack([points, points[:10]]), np.vstack([normals, normals[:10]]))
+    single = GPIS(bounds=BOUNDS).fit(points, normals)
+    x = 0.06 * random_directions(100, 9)
+    np.testing.assert_allclose(dup.mean(x), single.mean(x), atol=1e-4)
+
+
+def test_one_contact_gives_a_plane_through_it():
+    gp = GPIS(bounds=BOUNDS).fit(np.array([[0.0, 0.0, 0.02]]), np.array([[0.0, 0.0, 1.0]]))
+    assert abs(gp.mean(np.array([[0.0, 0.0, 0.02]]))[0]) < 1e-4
+    assert gp.mean(np.array([[0.0, 0.0, 0.0]]))[0] > 0
+    assert gp.mean(np.array([[0.0, 0.0, 0.04]]))[0] < 0
+
+
+def test_contacts_outside_the_bounds_are_rejected():
+    with pytest.raises(ValueError, match="outside the GPIS bounds"):
+        GPIS(bounds=BOUNDS).fit(np.array([[0.1, 0, 0]]), np.array([[1.0, 0, 0]]))
+
+
+def test_queries_before_fit_and_bad_parameters():
+    with pytest.raises(RuntimeError, match="no observations"):
+        GPIS().mean(np.zeros((1, 3)))
+    with pytest.raises(ValueError, match="unknown kernel"):
+        GPIS(kernel="gaussian")
+    with pytest.raises(ValueError, match="noise"):
+        GPIS(noise=0.0)
+    with pytest.raises(ValueError, match="bounds"):
+        GPIS(bounds=((0, 0, 0), (0, 1, 1)))
+
+
+def test_mesh_without_a_surface_in_the_bounds_is_an_error():
+    gp = GPIS(bounds=BOUNDS).fit(np.array([[0.0, 0.0, 0.02]]), np.array([[0.0, 0.0, 1.0]]))
+    with pytest.raises(ValueError, match="no 0-level set"):
+        gp.mesh(bounds=((-0.01, -0.01, -0.01), (0.01, 0.01, 0.01)), resolution=16)
