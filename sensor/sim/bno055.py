@@ -1,0 +1,235 @@
+"""Simulated Bosch BNO055 IMU in a fusion mode (IMU / NDOF): orientation, linear acceleration, gravity.
+
+Figures from the BNO055 data sheet (Bosch Sensortec, BST-BNO055-DS000, rev. 1.4):
+
+- Table 0-2 (electrical characteristics): accelerometer output noise density 150 ug/sqrt(Hz),
+  gyroscope output noise density 0.014 deg/s/sqrt(Hz).
+- Table 3-4 (section 3.3): default sensor settings in fusion, accelerometer 4 g range with 62.5 Hz
+  bandwidth, gyroscope 2000 deg/s with 32 Hz bandwidth.
+- Table 3-14 (section 3.6.3): fusion data output rate 100 Hz in IMU and NDOF modes.
+- Table 3-31 (section 3.6.5.5): quaternion output, 1 = 2^14 LSB.
+- Tables 3-33 and 3-35 (sections 3.6.5.6-7): linear acceleration and gravity vector, 1 m/s^2 = 100 LSB.
+
+The data sheet gives no accuracy figure for the fused orientation, so its error model is derived
+from the sensor figures above and stated assumptions:
+
+- white orientation noise, a small random rotation in the body frame per sample, with the tilt
+  noise an accelerometer-aided filter would see unfiltered: 150 ug/sqrt(Hz) * sqrt(62.5 Hz) / 1 g
+  = 1.19 mrad (0.068 deg) per axis;
+- heading (yaw about the world vertical) drifts as the integral of gyroscope noise: a random walk of
+  0.014 deg/sqrt(s), as in IMU mode where nothing observes heading;
+- tilt (about the world horizontal axes) has a slowly varying bias bounded by gravity: an
+  Ornstein-Uhlenbeck process whose RMS equals the residual accelerometer bias / g (assumed 0.02 m/s^2
+  after calibration, i.e. 0.12 deg) with an assumed 60 s correlation time.
+
+Output conventions follow the chip: the quaternion rotates sensor-frame vectors into the world frame;
+gravity is what the accelerometer reads at rest, +9.81 m/s^2 along the world's up axis, expressed in
+the sensor frame; linear acceleration = accelerometer reading - gravity estimate, sensor frame.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from sensor.pad_state import PadState
+from sensor.sim.quaternion import rotation_from_wxyz, wxyz_from_rotation
+from sensor.sim.sampling import SampleClock
+
+STANDARD_GRAVITY_MPS2 = 9.80665
+#: Table 0-2: accelerometer output noise density, (m/s^2)/sqrt(Hz).
+ACCEL_NOISE_DENSITY_MPS2_PER_SQRT_HZ = 150e-6 * STANDARD_GRAVITY_MPS2
+#: Table 0-2: gyroscope output noise density, (rad/s)/sqrt(Hz).
+GYRO_NOISE_DENSITY_RADPS_PER_SQRT_HZ = math.radians(0.014)
+#: Table 3-4: accelerometer bandwidth in fusion modes, hertz.
+ACCEL_BANDWIDTH_HZ = 62.5
+#: Table 3-14: fusion output data rate, hertz.
+FUSION_RATE_HZ = 100.0
+#: Table 3-31: quaternion LSB.
+QUATERNION_LSB = 2.0**-14
+#: Tables 3-33, 3-35: linear acceleration and gravity LSB, m/s^2.
+ACCELERATION_LSB_MPS2 = 0.01
+
+_ASSUMED_ACCEL_BIAS_MPS2 = 0.02
+
+
+@dataclass(frozen=True)
+class BNO055Noise:
+    """Noise, bias and drift of the fused outputs (module docstring gives the derivations).
+
+    Attributes
+    ----------
+    accel_noise_density_mps2_per_sqrt_hz : float
+        White accelerometer noise density, (m/s^2)/sqrt(Hz); per-sample RMS is this times
+        sqrt(bandwidth).
+    accel_bias_std_mps2 : float
+        RMS of a constant per-axis accelerometer bias drawn at power-on, m/s^2.
+    orientation_white_std_rad : float
+        RMS per body axis of the white orientation error rotation, radians.
+    yaw_random_walk_rad_per_sqrt_s : float
+        Heading random walk about the world vertical, rad/sqrt(s).
+    tilt_bias_std_rad : float
+        Stationary RMS per horizontal world axis of the slowly varying tilt bias, radians.
+    tilt_bias_time_constant_s : float
+        Correlation time of the tilt bias, seconds.
+    """
+
+    accel_noise_density_mps2_per_sqrt_hz: float = ACCEL_NOISE_DENSITY_MPS2_PER_SQRT_HZ
+    accel_bias_std_mps2: float = _ASSUMED_ACCEL_BIAS_MPS2
+    orientation_white_std_rad: float = (ACCEL_NOISE_DENSITY_MPS2_PER_SQRT_HZ * math.sqrt(ACCEL_BANDWIDTH_HZ)
+                                        / STANDARD_GRAVITY_MPS2)
+    yaw_random_walk_rad_per_sqrt_s: float = GYRO_NOISE_DENSITY_RADPS_PER_SQRT_HZ
+    tilt_bias_std_rad: float = _ASSUMED_ACCEL_BIAS_MPS2 / STANDARD_GRAVITY_MPS2
+    tilt_bias_time_constant_s: float = 60.0
+
+    def __post_init__(self) -> None:
+        for name, value in vars(self).items():
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"{name} must be finite and >= 0, got {value}")
+        if self.tilt_bias_time_constant_s == 0.0:
+            raise ValueError("tilt_bias_time_constant_s must be > 0 s")
+
+    @classmethod
+    def off(cls) -> "BNO055Noise":
+        """No noise, bias or drift."""
+        return cls(0.0, 0.0, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class BNO055Config:
+    """Settings of the simulated IMU.
+
+    Attributes
+    ----------
+    output_rate_hz : float
+        Fusion output data rate, hertz (Table 3-14: 100 Hz).
+    accel_bandwidth_hz : float
+        Accelerometer bandwidth, hertz (Table 3-4: 62.5 Hz); sets the per-sample noise.
+    gravity_mps2 : float
+        Magnitude of gravity, m/s^2.
+    noise : BNO055Noise
+        Noise, bias and drift; ``BNO055Noise.off()`` for noise-free runs.
+    quantise : bool
+        Round outputs to the chip's LSBs (quaternion 2^-14, accelerations 0.01 m/s^2).
+    """
+
+    output_rate_hz: float = FUSION_RATE_HZ
+    accel_bandwidth_hz: float = ACCEL_BANDWIDTH_HZ
+    gravity_mps2: float = STANDARD_GRAVITY_MPS2
+    noise: BNO055Noise = field(default_factory=BNO055Noise)
+    quantise: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("output_rate_hz", "accel_bandwidth_hz", "gravity_mps2"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f"{name} must be finite and > 0, got {value}")
+
+    @property
+    def accel_noise_std_mps2(self) -> float:
+        """Per-sample, per-axis accelerometer noise RMS, m/s^2."""
+        return self.noise.accel_noise_density_mps2_per_sqrt_hz * math.sqrt(self.accel_bandwidth_hz)
+
+    def noiseless(self) -> "BNO055Config":
+        """The same settings with noise, bias and drift switched off (quantisation kept)."""
+        return replace(self, noise=BNO055Noise.off())
+
+
+@dataclass(frozen=True)
+class ImuSample:
+    """One fused IMU output.
+
+    Attributes
+    ----------
+    t_s : float
+        Simulation time of the sample, seconds.
+    quat_wxyz : (4,) float
+        Estimated sensor orientation in the world frame, unit quaternion (w, x, y, z).
+    lin_acc_mps2 : (3,) float
+        Linear acceleration without gravity, sensor frame, m/s^2.
+    gravity_mps2 : (3,) float
+        Gravity as the accelerometer reads it (pointing up), sensor frame, m/s^2.
+    """
+
+    t_s: float
+    quat_wxyz: np.ndarray
+    lin_acc_mps2: np.ndarray
+    gravity_mps2: np.ndarray
+
+
+class SimulatedBNO055:
+    """Fused IMU outputs at the fusion rate, from the true pad pose and velocity.
+
+    Call :meth:`step` after every physics step; it returns an :class:`ImuSample` on the steps where
+    a fusion output falls due, else None. Linear acceleration is the mean acceleration since the
+    previous sample (finite difference of the true velocity), so the first sample reports zero.
+
+    Parameters
+    ----------
+    config : BNO055Config
+        Chip settings.
+    rng : numpy.random.Generator
+        Source of all randomness of this chip.
+    """
+
+    def __init__(self, config: BNO055Config, rng: np.random.Generator) -> None:
+        self.config = config
+        self._rng = rng
+        self._clock = SampleClock(1.0 / config.output_rate_hz)
+        noise = config.noise
+        self._accel_bias_mps2 = noise.accel_bias_std_mps2 * rng.standard_normal(3)
+        self._tilt_bias_rad = noise.tilt_bias_std_rad * rng.standard_normal(2)
+        self._yaw_bias_rad = 0.0
+        self._last_t: float | None = None
+        self._last_velocity_mps: np.ndarray | None = None
+
+    def step(self, pad_state: PadState) -> ImuSample | None:
+        """Advance to ``pad_state.t_s``; return a fused output if one is due."""
+        if not self._clock.due(pad_state.t_s):
+            return None
+        return self._measure(pad_state)
+
+    def _measure(self, pad_state: PadState) -> ImuSample:
+        t = pad_state.t_s
+        velocity = np.asarray(pad_state.lin_vel_mps, dtype=float)
+        if self._last_t is None:
+            acceleration_world = np.zeros(3)
+        else:
+            dt = t - self._last_t
+            acceleration_world = (velocity - self._last_velocity_mps) / dt
+            self._advance_bias(dt)
+        self._last_t = t
+        self._last_velocity_mps = velocity
+
+        true_rotation = rotation_from_wxyz(pad_state.quat_wxyz)
+        measured_rotation = self._orientation_error_world() * true_rotation * self._orientation_error_body()
+        up = np.array([0.0, 0.0, self.config.gravity_mps2])
+        specific_force = true_rotation.inv().apply(acceleration_world + up)
+        specific_force += self._accel_bias_mps2 + self.config.accel_noise_std_mps2 * self._rng.standard_normal(3)
+        gravity = measured_rotation.inv().apply(up)
+        lin_acc = specific_force - gravity
+
+        quat = wxyz_from_rotation(measured_rotation)
+        if np.dot(quat, pad_state.quat_wxyz) < 0.0:
+            quat = -quat  # keep the caller's hemisphere so the stream has no sign jumps
+        if self.config.quantise:
+            quat = np.round(quat / QUATERNION_LSB) * QUATERNION_LSB
+            quat /= np.linalg.norm(quat)
+            gravity = np.round(gravity / ACCELERATION_LSB_MPS2) * ACCELERATION_LSB_MPS2
+            lin_acc = np.round(lin_acc / ACCELERATION_LSB_MPS2) * ACCELERATION_LSB_MPS2
+        return ImuSample(t_s=t, quat_wxyz=quat, lin_acc_mps2=lin_acc, gravity_mps2=gravity)
+
+    def _advance_bias(self, dt: float) -> None:
+        noise = self.config.noise
+        self._yaw_bias_rad += noise.yaw_random_walk_rad_per_sqrt_s * math.sqrt(dt) * self._rng.standard_normal()
+        keep = math.exp(-dt / noise.tilt_bias_time_constant_s)
+        self._tilt_bias_rad = (keep * self._tilt_bias_rad
+                               + noise.tilt_bias_std_rad * math.sqrt(1.0 - keep * keep) * self._rng.standard_normal(2))
+
+    def _orientation_error_world(self) -> Rotation:
+        return Rotation.from_rotvec([self._tilt_bias_rad[0], self._tilt_bias_rad[1], self._yaw_bias_rad])
+
+    def _orientation_error_body(self) -> Rotation:
+        return Rotation.from_rotvec(self.config.noise.orientation_white_std_rad * self._rng.standard_normal(3))
