@@ -33,10 +33,10 @@ def reading(i: int) -> Reading:
     )
 
 
-def write_session(directory, n_readings: int, n_contacts: int, start: int = 0, **writer_options) -> SessionWriter:
+def write_session(directory, n_readings: int, n_contacts: int) -> SessionWriter:
     """Readings, joint states, contacts (each on 3 earlier readings), events and snapshots; left open."""
-    writer = SessionWriter(directory, METADATA, **writer_options)
-    write_records(writer, start, n_readings, n_contacts)
+    writer = SessionWriter(directory, METADATA)
+    write_records(writer, 0, n_readings, n_contacts)
     return writer
 
 

@@ -62,7 +62,9 @@ def test_the_documented_example_reads_a_written_session(tmp_path, crashed):
         writer.write_reading(reading)
     for i in range(4):
         writer.write_joint_state(i / 50.0, np.arange(7) / (i + 1.0))
-    writer.write_contact(OrientedContact(0.05, np.array([0.1, 0.2, 0.3]), np.array([1.0, 0.0, 0.0]), 2.0, tuple(readings[2:5])))
+    writer.write_contact(
+        OrientedContact(0.05, np.array([0.1, 0.2, 0.3]), np.array([1.0, 0.0, 0.0]), 2.0, tuple(readings[2:5]))
+    )
     writer.write_event("touch", 0.01, target_m=[0.1, 0.2, 0.3], approach_dir=[-1.0, 0.0, 0.0])
     writer.write_reconstruction((np.eye(3), np.array([[0, 1, 2]])), 1, 0.08)
     if crashed:  # killed while writing the last reading: the example must skip the cut line
@@ -82,7 +84,9 @@ def test_the_documented_example_reads_a_written_session(tmp_path, crashed):
     assert found["project_modules"] == []
     assert found["columns"] == list(READINGS_COLUMNS)
     kept = readings[:-1] if crashed else readings
-    expected = [[r.t_s, r.pressure_pa, *r.quat_wxyz, *r.lin_acc_mps2, *r.gravity_mps2, r.temperature_c] for r in kept]
+    expected = [
+        [r.t_s, r.pressure_pa, *r.quat_wxyz, *r.lin_acc_mps2, *r.gravity_mps2, r.temperature_c] for r in kept
+    ]
     assert found["readings"] == expected
     assert found["joints"] == [[i / 50.0, *(np.arange(7) / (i + 1.0))] for i in range(4)]
     assert found["metadata"]["seed"] == 3

@@ -21,7 +21,8 @@ METADATA = {
 # Floats whose decimal form is easy to get wrong: repeating binary fractions, the extremes of the
 # double range, subnormals, signed zero.
 AWKWARD_FLOATS = np.array(
-    [0.1, 1 / 3, 2 / 3, 1e-300, 5e-324, 2.2250738585072014e-308, 1.7976931348623157e308, -0.0, 101325.00000000001]
+    [0.1, 1 / 3, 2 / 3, 1e-300, 5e-324, 2.2250738585072014e-308, 1.7976931348623157e308, -0.0,
+     101325.00000000001]
 )
 
 
@@ -76,12 +77,15 @@ def written(tmp_path):
         OrientedContact(0.7, AWKWARD_FLOATS[:3], normals[2], 1 / 3, ()),
     ]
     events = [
-        ("touch", 0.30, {"target_m": np.array([0.5, 0.0, 0.1]), "approach_dir": [0.0, 0.0, -1.0], "strategy": "variance"}),
+        ("touch", 0.30,
+         {"target_m": np.array([0.5, 0.0, 0.1]), "approach_dir": [0.0, 0.0, -1.0], "strategy": "variance"}),
         ("contact_start", 0.305, {"pressure_pa": 101500.25}),
         ("contact_end", 0.35, {}),
-        ("miss", 0.5, {"target_m": [0.4, 0.1, 0.1], "approach_dir": np.array([0.0, -1.0, 0.0]), "travel_m": 0.02}),
+        ("miss", 0.5,
+         {"target_m": [0.4, 0.1, 0.1], "approach_dir": np.array([0.0, -1.0, 0.0]), "travel_m": 0.02}),
         ("error", 0.6, {"source": "bno055", "message": "device stopped answering", "retries": np.int64(3)}),
-        ("operator_note", 0.65, {"text": "nudged the object", "nested": {"ok": True, "values": [1, 2.5, None]}}),
+        ("operator_note", 0.65,
+         {"text": "nudged the object", "nested": {"ok": True, "values": [1, 2.5, None]}}),
     ]
     vertices = rng.normal(size=(30, 3))
     vertices[:3] = AWKWARD_FLOATS.reshape(3, 3)

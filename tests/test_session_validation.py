@@ -26,7 +26,9 @@ def reading(t_s: float, **changes) -> Reading:
 
 
 def contact(**changes) -> OrientedContact:
-    values = dict(t_s=1.0, position_m=np.array([0.1, 0.2, 0.3]), normal=np.array([0.0, 0.0, 1.0]), force_n=1.0)
+    values = dict(
+        t_s=1.0, position_m=np.array([0.1, 0.2, 0.3]), normal=np.array([0.0, 0.0, 1.0]), force_n=1.0
+    )
     values.update(changes)
     return OrientedContact(**values)
 
@@ -177,7 +179,10 @@ def test_an_existing_empty_directory_can_hold_a_new_session(tmp_path):
         (None, "metadata is required"),
         ({"robot": "panda", "sensor": "sim", "object": "cube"}, "missing \\['seed'\\]"),
         ({**METADATA, "format_version": 2}, "format_version"),
-        ({**METADATA, "configuration": {"gain": float("inf")}}, r"metadata\['configuration'\]\['gain'\] must be finite"),
+        (
+            {**METADATA, "configuration": {"gain": float("inf")}},
+            r"metadata\['configuration'\]\['gain'\] must be finite",
+        ),
     ],
 )
 def test_bad_metadata_is_refused(tmp_path, metadata, message):
@@ -204,7 +209,12 @@ def write_small_session(directory):
         ("readings.csv", 4, "0.2,oops" + ",0.0" * 11, "not a row of numbers"),
         ("readings.csv", 5, "0.01" + ",0.0" * 12, "earlier than the previous one"),
         ("readings.csv", 1, "time,pressure", "header must be"),
-        ("contacts.jsonl", 1, '{"t_s":1.0,"position_m":[0,0],"normal":[0,0,1],"force_n":1.0,"n_readings":0}', "position_m"),
+        (
+            "contacts.jsonl",
+            1,
+            '{"t_s":1.0,"position_m":[0,0],"normal":[0,0,1],"force_n":1.0,"n_readings":0}',
+            "position_m",
+        ),
     ],
 )
 def test_a_corrupt_line_in_the_middle_names_file_and_line(tmp_path, name, line_number, replacement, message):

@@ -189,7 +189,8 @@ def parse_csv_table(path: Path, lines: list[str], columns: tuple[str, ...]) -> n
         try:
             [float(value) for value in row]
         except ValueError:
-            raise SessionFormatError(path, offset + 2, f"not a row of numbers: {lines[offset + 1]!r}") from None
+            problem = f"not a row of numbers: {lines[offset + 1]!r}"
+            raise SessionFormatError(path, offset + 2, problem) from None
     raise AssertionError("unreachable: numpy refused a table that Python parses")
 
 
@@ -218,7 +219,8 @@ def parse_json_record(path: Path, line_number: int, line: str, required: dict[st
             raise SessionFormatError(path, line_number, f"missing field {key!r}")
         value = record[key]
         if not _has_json_type(value, kind):
-            raise SessionFormatError(path, line_number, f"field {key!r} must be {kind.__name__}, got {value!r}")
+            problem = f"field {key!r} must be {kind.__name__}, got {value!r}"
+            raise SessionFormatError(path, line_number, problem)
     return record
 
 

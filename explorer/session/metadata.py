@@ -118,6 +118,8 @@ def load_metadata(directory: Path) -> dict:
     version = stored.get("format_version")
     if version != FORMAT_VERSION:
         raise SessionFormatError(
-            path, None, f"format_version {version!r} is not supported (this code reads version {FORMAT_VERSION})"
+            path,
+            None,
+            f"format_version {version!r} is not supported (this code reads version {FORMAT_VERSION})",
         )
     return stored

@@ -29,7 +29,9 @@ def mesh_arrays(mesh: Any) -> tuple[np.ndarray, np.ndarray]:
     elif isinstance(mesh, (tuple, list)) and len(mesh) == 2:
         vertices, faces = mesh
     else:
-        raise TypeError(f"mesh must have .vertices and .faces or be a (vertices, faces) pair, got {type(mesh).__name__}")
+        raise TypeError(
+            f"mesh must have .vertices and .faces or be a (vertices, faces) pair, got {type(mesh).__name__}"
+        )
     vertices = np.asarray(vertices, dtype=np.float64)
     faces_in = np.asarray(faces)
     if vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) == 0:
@@ -41,7 +43,9 @@ def mesh_arrays(mesh: Any) -> tuple[np.ndarray, np.ndarray]:
     if faces_in.dtype.kind not in "iu":
         raise ValueError(f"mesh faces must be integer vertex indices, got dtype {faces_in.dtype}")
     if faces_in.min() < 0 or faces_in.max() >= len(vertices):
-        raise ValueError(f"mesh faces must index vertices 0..{len(vertices) - 1}, got {faces_in.min()}..{faces_in.max()}")
+        raise ValueError(
+            f"mesh faces must index vertices 0..{len(vertices) - 1}, got {faces_in.min()}..{faces_in.max()}"
+        )
     return vertices, faces_in.astype(np.int32)
 
 

@@ -163,7 +163,8 @@ class SessionReader:
             )
             relative = PurePosixPath(record["path"])
             if relative.is_absolute() or ".." in relative.parts:
-                raise SessionFormatError(path, line_number, f"path must stay inside the session: {record['path']!r}")
+                problem = f"path must stay inside the session: {record['path']!r}"
+                raise SessionFormatError(path, line_number, problem)
             mesh_path = self.directory.joinpath(*relative.parts)
             if not mesh_path.is_file():
                 raise SessionFormatError(path, line_number, f"snapshot file {mesh_path} is missing")

@@ -8,6 +8,7 @@ from typing import Any, Iterator, Mapping
 
 import numpy as np
 
+from explorer.session.layout import READINGS_COLUMNS
 from sensor.oriented_contact import OrientedContact
 from sensor.reading import Reading
 
@@ -48,7 +49,7 @@ class Readings:
     @classmethod
     def from_rows(cls, rows: np.ndarray) -> "Readings":
         """Build from the ``(n, 13)`` table of ``readings.csv`` (columns in file order)."""
-        rows = np.asarray(rows, dtype=np.float64).reshape(-1, 13)
+        rows = np.asarray(rows, dtype=np.float64).reshape(-1, len(READINGS_COLUMNS))
         return cls(
             t_s=_read_only(rows[:, 0]),
             pressure_pa=_read_only(rows[:, 1]),

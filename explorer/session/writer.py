@@ -117,8 +117,8 @@ class SessionWriter:
             raise ValueError("metadata is required to start a new session (omit it only with resume=True)")
         if self.directory.exists() and (not self.directory.is_dir() or any(self.directory.iterdir())):
             raise FileExistsError(
-                f"{self.directory} already exists and is not an empty directory; pass resume=True to append to "
-                f"the session there, or choose a new directory"
+                f"{self.directory} already exists and is not an empty directory; pass resume=True "
+                f"to append to the session there, or choose a new directory"
             )
         full = new_metadata(metadata)
         self.directory.mkdir(parents=True, exist_ok=True)
@@ -168,7 +168,9 @@ class SessionWriter:
     # ------------------------------------------------------------------------ writing
     def _check_open(self) -> None:
         if self._closed:
-            raise SessionClosedError(f"the session writer for {self.directory} is closed; no more records can be written")
+            raise SessionClosedError(
+                f"the session writer for {self.directory} is closed; no more records can be written"
+            )
 
     @property
     def closed(self) -> bool:
@@ -188,8 +190,8 @@ class SessionWriter:
             self._check_open()
             if self._reading_times and t_s < self._reading_times[-1]:
                 raise ValueError(
-                    f"reading.t_s {t_s!r} is earlier than the previous reading's {self._reading_times[-1]!r}; "
-                    f"readings must be written in time order"
+                    f"reading.t_s {t_s!r} is earlier than the previous reading's "
+                    f"{self._reading_times[-1]!r}; readings must be written in time order"
                 )
             self._readings.append(row, fsync=self._fsync_streams)
             self._reading_times.append(t_s)
@@ -231,12 +233,13 @@ class SessionWriter:
             self._check_open()
             if record["readings_t_s"] is not None:
                 t_first, t_last = record["readings_t_s"]
-                in_stream = bisect_right(self._reading_times, t_last) - bisect_left(self._reading_times, t_first)
+                times = self._reading_times
+                in_stream = bisect_right(times, t_last) - bisect_left(times, t_first)
                 if in_stream != record["n_readings"]:
                     raise ValueError(
-                        f"contact.readings: {record['n_readings']} readings in t_s [{t_first!r}, {t_last!r}] but "
-                        f"{in_stream} written with write_reading there; write a contact's readings to the "
-                        f"session first (the contact refers to them by time range)"
+                        f"contact.readings: {record['n_readings']} readings in t_s [{t_first!r}, "
+                        f"{t_last!r}] but {in_stream} written with write_reading there; write a "
+                        f"contact's readings to the session first (it refers to them by time range)"
                     )
                 # The referenced readings must be on disk before the contact that refers to them.
                 self._readings.fsync()
@@ -310,8 +313,9 @@ class SessionWriter:
             if self._closed:
                 return
             self._closed = True
-            streams = [self._readings, self._joint_states, self._contacts, self._events, self._reconstructions]
-            for stream in streams:
+            for stream in (
+                self._readings, self._joint_states, self._contacts, self._events, self._reconstructions
+            ):
                 if stream is not None:
                     stream.fsync()
                     stream.close()
