@@ -378,8 +378,9 @@ class VarianceTracker:
     Keeps ``W = L^-1 k_*`` (rows x candidates) and extends it by the new rows of the factor after
     each :meth:`GPIS.add`: ``W_new = M^-1 (k_new - S^T W)``, one pass over ``W`` instead of a
     triangular solve with all candidates. A refit of the GPIS triggers a full recomputation.
-    ``W`` stays float64: ``M^-1`` has entries up to 1/noise, which would amplify float32 rounding
-    of ``S^T W`` into visible variance errors.
+    ``W`` is stored transposed, (candidates x row capacity), so the update is one tall-skinny
+    product over contiguous rows; it stays float64 because ``M^-1`` has entries up to 1/noise,
+    which would amplify float32 rounding of ``S^T W`` into visible variance errors.
 
     Parameters
     ----------
@@ -394,8 +395,13 @@ class VarianceTracker:
         self.candidates = _finite_array(candidates, "candidates", (None, 3))
         self._generation = -1
         self._rows = 0
-        self._W = np.zeros((0, len(self.candidates)))
+        self._Wt = np.zeros((len(self.candidates), 0))
         self._variance = np.zeros(len(self.candidates))
+
+    @property
+    def nbytes(self) -> int:
+        """Memory held by the tracker."""
+        return self._Wt.nbytes + self._variance.nbytes
 
     def variance(self) -> np.ndarray:
         """(m,) float64 posterior variance at the candidates."""
@@ -411,7 +417,8 @@ class VarianceTracker:
         gp = self.gpis
         W = gp._factor.solve_lower(gp.cross_covariance(self.candidates))
         self._variance = gp.kernel.prior_variance - np.einsum("ij,ij->j", W, W)
-        self._W = self._grow(np.zeros((0, len(self.candidates))), W)
+        self._Wt = np.zeros((len(self.candidates), 0))
+        self._store(W, used=0)
         self._rows = gp.n_rows
         self._generation = gp._generation
 
@@ -422,20 +429,20 @@ class VarianceTracker:
         full = gp.kernel.joint_covariance(gp._obs_points[gp._row_point[start:stop]],
                                           self.candidates)[:, :, :, 0]
         k_new = full[np.arange(stop - start), gp._row_comp[start:stop]]
-        rhs = k_new - rows[:, :start] @ self._W[:start]
+        rhs = k_new - (self._Wt[:, :start] @ rows[:, :start].T).T
         W_new = scipy.linalg.solve_triangular(rows[:, start:], rhs, lower=True)
         self._variance = self._variance - np.einsum("ij,ij->j", W_new, W_new)
-        self._W = self._grow(self._W, W_new, used=start)
+        self._store(W_new, used=start)
         self._rows = stop
 
-    def _grow(self, buffer: np.ndarray, new_rows: np.ndarray, used: int = 0) -> np.ndarray:
+    def _store(self, new_rows: np.ndarray, used: int) -> None:
+        """Write rows used.. of W (as columns of W^T), doubling the capacity when full."""
         need = used + len(new_rows)
-        if buffer.shape[0] < need:
-            grown = np.zeros((max(need, 2 * buffer.shape[0], 64), buffer.shape[1]))
-            grown[:used] = buffer[:used]
-            buffer = grown
-        buffer[used:need] = new_rows
-        return buffer
+        if self._Wt.shape[1] < need:
+            grown = np.zeros((len(self.candidates), max(need, 2 * self._Wt.shape[1], 64)))
+            grown[:, :used] = self._Wt[:, :used]
+            self._Wt = grown
+        self._Wt[:, used:need] = new_rows.T
 
 
 # ---------------------------------------------------------------------- field evaluation
