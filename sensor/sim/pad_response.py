@@ -60,11 +60,15 @@ class PadResponse:
         float or (n,) float
             Pressure rise, pascals, in [0, saturation_pa).
         """
+        if np.ndim(force_n) == 0:  # scalar path: called every physics step
+            force = float(force_n)
+            if not (math.isfinite(force) and force >= 0.0):
+                raise ValueError(f"force_n must be finite and >= 0 N, got {force_n!r}")
+            return self.saturation_pa * -math.expm1(-force / self.force_scale_n)
         force = np.asarray(force_n, dtype=float)
         if np.any(~np.isfinite(force)) or np.any(force < 0.0):
             raise ValueError(f"force_n must be finite and >= 0 N, got {force_n!r}")
-        rise = self.saturation_pa * -np.expm1(-force / self.force_scale_n)
-        return float(rise) if rise.ndim == 0 else rise
+        return self.saturation_pa * -np.expm1(-force / self.force_scale_n)
 
     def force_n(self, pressure_rise_pa):
         """Invert the steady-state curve: the force that produces a pressure rise.
