@@ -1,0 +1,44 @@
+import numpy as np
+import pytest
+import trimesh
+
+from reconstruction.synthetic_contacts import ContactNoise, perturb_normals, sample_contacts
+
+
+def test_noise_free_contacts_lie_on_the_surface_with_its_normals():
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=0.05)
+    p, n, tp, tn = sample_contacts(sphere, 500, ContactNoise.off(), seed=1)
+    np.testing.assert_allclose(p, tp)
+    _, dist, _ = trimesh.proximity.closest_point(sphere, p)
+    assert dist.max() < 1e-5  # trimesh's closest point is approximate at the micrometre level
+    assert np.all(np.sum(n * p, axis=1) > 0)  # outward
+
+
+def test_normal_error_has_the_requested_mean_angle():
+    rng = np.random.default_rng(0)
+    normals = rng.normal(size=(20000, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    tilted = perturb_normals(normals, 7.0, rng)
+    angle = np.degrees(np.arccos(np.clip(np.sum(tilted * normals, 1), -1, 1)))
+    assert angle.mean() == pytest.approx(7.0, rel=0.02)
+    np.testing.assert_allclose(np.linalg.norm(tilted, axis=1), 1.0)
+
+
+def test_position_noise_has_the_requested_spread():
+    box = trimesh.creation.box((0.1, 0.1, 0.1))
+    p, _, tp, _ = sample_contacts(box, 20000, ContactNoise(position_std_m=1e-3), seed=2)
+    assert np.std(p - tp) == pytest.approx(1e-3, rel=0.03)
+
+
+def test_area_uniform_sampling():
+    box = trimesh.creation.box((0.2, 0.1, 0.1))  # the x faces are half the area of the others
+    p, n, _, _ = sample_contacts(box, 30000, ContactNoise.off(), seed=3)
+    x_faces = np.mean(np.abs(n[:, 0]) > 0.5)
+    assert x_faces == pytest.approx(2 * 0.01 / (2 * 0.01 + 4 * 0.02), abs=0.01)
+
+
+def test_bad_parameters():
+    with pytest.raises(ValueError):
+        ContactNoise(position_std_m=-1)
+    with pytest.raises(ValueError, match="at least one"):
+        sample_contacts(trimesh.creation.box(), 0)
