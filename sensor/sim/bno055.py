@@ -217,8 +217,8 @@ class SimulatedBNO055:
         if self.config.quantise:
             quat = np.round(quat / QUATERNION_LSB) * QUATERNION_LSB
             quat /= np.linalg.norm(quat)
-            gravity = np.round(gravity / ACCELERATION_LSB_MPS2) * ACCELERATION_LSB_MPS2
-            lin_acc = np.round(lin_acc / ACCELERATION_LSB_MPS2) * ACCELERATION_LSB_MPS2
+            gravity = np.round(gravity / ACCELERATION_LSB_MPS2) * ACCELERATION_LSB_MPS2 + 0.0  # no -0.0
+            lin_acc = np.round(lin_acc / ACCELERATION_LSB_MPS2) * ACCELERATION_LSB_MPS2 + 0.0
         return ImuSample(t_s=t, quat_wxyz=quat, lin_acc_mps2=lin_acc, gravity_mps2=gravity)
 
     def _advance_bias(self, dt: float) -> None:
