@@ -24,10 +24,14 @@ def test_normal_error_has_the_requested_mean_angle():
     np.testing.assert_allclose(np.linalg.norm(tilted, axis=1), 1.0)
 
 
-def test_position_noise_has_the_requested_spread():
+def test_position_noise_has_the_requested_spread_along_and_across_the_normal():
     box = trimesh.creation.box((0.1, 0.1, 0.1))
-    p, _, tp, _ = sample_contacts(box, 20000, ContactNoise(position_std_m=1e-3), seed=2)
-    assert np.std(p - tp) == pytest.approx(1e-3, rel=0.03)
+    noise = ContactNoise(normal_std_m=0.2e-3, tangent_std_m=1e-3)
+    p, _, tp, tn = sample_contacts(box, 20000, noise, seed=2)
+    along = np.sum((p - tp) * tn, axis=1)
+    across = (p - tp) - along[:, None] * tn
+    assert np.std(along) == pytest.approx(0.2e-3, rel=0.03)
+    assert np.sqrt(np.mean(np.sum(across**2, axis=1)) / 2) == pytest.approx(1e-3, rel=0.03)
 
 
 def test_area_uniform_sampling():
@@ -39,6 +43,6 @@ def test_area_uniform_sampling():
 
 def test_bad_parameters():
     with pytest.raises(ValueError):
-        ContactNoise(position_std_m=-1)
+        ContactNoise(normal_std_m=-1)
     with pytest.raises(ValueError, match="at least one"):
         sample_contacts(trimesh.creation.box(), 0)
