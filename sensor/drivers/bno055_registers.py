@@ -67,6 +67,5 @@ class OperationMode(enum.IntEnum):
 
 
 def register_label(register: int) -> str:
-    """``"0x20 (QUA_DATA_W_LSB)"`` style label for messages."""
-    name = REGISTER_NAMES.get(register)
-    return f"0x{register:02X}" + (f" ({name})" if name else "")
+    """The register's datasheet name (e.g. ``"QUA_DATA_W_LSB"``), or its address in hex."""
+    return REGISTER_NAMES.get(register, f"0x{register:02X}")

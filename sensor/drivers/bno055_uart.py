@@ -120,7 +120,7 @@ class BNO055UartTransport:
         """Read ``length`` bytes starting at ``register``."""
         _check_request(self.device, register, length)
         request = bytes([START, CMD_READ, register, length])
-        return self._transact(register, f"reading {length} bytes", request,
+        return self._transact(register, f"reading {length} bytes from", request,
                               lambda deadline: self._read_reply(length, deadline))
 
     def write(self, register: int, data: bytes | int) -> None:
@@ -128,7 +128,7 @@ class BNO055UartTransport:
         payload = bytes([data]) if isinstance(data, int) else bytes(data)
         _check_request(self.device, register, len(payload))
         request = bytes([START, CMD_WRITE, register, len(payload)]) + payload
-        self._transact(register, f"writing {len(payload)} bytes", request, self._write_reply)
+        self._transact(register, f"writing {len(payload)} bytes to", request, self._write_reply)
 
     # -- one transaction with retries -------------------------------------------------------
 
@@ -152,7 +152,7 @@ class BNO055UartTransport:
             self.stats.transactions += 1
             return result
         last = failures[-1]
-        message = f"{operation} at {label}: {last}; gave up after {self.attempts} attempts"
+        message = f"{operation} {label}: {last}; gave up after {self.attempts} attempts"
         if last.timed_out:
             raise DeviceTimeoutError(self.device, message, register)
         raise BusError(self.device, message, register)
@@ -235,8 +235,8 @@ class BNO055UartTransport:
         self.stats.statuses[name] = self.stats.statuses.get(name, 0) + 1
         if status in RETRYABLE_STATUSES:
             raise _AttemptFailed(f"chip answered 0xEE 0x{status:02X} {name}", timed_out=False)
-        raise ProtocolError(self.device, f"{register_label(self._register)}: chip answered "
-                            f"0xEE 0x{status:02X} {name}", self._register)
+        raise ProtocolError(self.device, f"chip answered 0xEE 0x{status:02X} {name} to a request "
+                            f"for {register_label(self._register)}", self._register)
 
     def _skip(self, count: int, budget: int) -> int:
         self.stats.garbage_bytes += count
