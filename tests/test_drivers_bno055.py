@@ -82,6 +82,8 @@ def test_calibration_status_and_profile_encodings():
         CalibrationProfile.from_hex("zz")
     with pytest.raises(ValueError, match="16-bit"):
         CalibrationProfile((40000, 0, 0), (0, 0, 0), (0, 0, 0), 0, 0)
+    with pytest.raises(ValueError, match="16-bit"):
+        CalibrationProfile((1.5, 0, 0), (0, 0, 0), (0, 0, 0), 0, 0)
 
 
 # -- against the emulated chip ---------------------------------------------------------------

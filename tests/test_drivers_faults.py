@@ -4,7 +4,7 @@ import pytest
 
 from sensor.drivers import BMP280, BNO055I2C, ChipIdError, DeviceError
 from sensor.drivers.bno055_registers import register_label
-from sensor.emulators import BMP280Chip, BNO055Chip, FakeClock, FakeSMBus, Fault
+from sensor.emulators import BMP280Chip, FakeClock, FakeSMBus, Fault
 from sensor.emulators.fault_campaign import CASES, run_case
 
 DEVICE_NAMES = {"bmp280/i2c": "BMP280 at I2C 0x76", "bno055/i2c": "BNO055 at I2C 0x28",

@@ -1,8 +1,11 @@
 """The microcontroller line protocol: checksum, encoding, robust parsing and clock mapping."""
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 
-from sensor.drivers import DeviceDisconnectedError, MicrocontrollerStream
+from sensor.drivers import DeviceDisconnectedError, MicrocontrollerStream, mcu_stream
 from sensor.drivers.device_clock import DeviceClockMapper
 from sensor.drivers.mcu_stream import (LineError, StreamRecord, checksum, encode_record,
                                        parse_line)
@@ -24,6 +27,15 @@ def test_a_hand_written_line_parses():
     assert parsed.quat_wxyz == pytest.approx([1, 0, 0, 0])
     assert parsed.lin_acc_mps2 == pytest.approx([0.1, 0.2, 0.3])
     assert parsed.gravity_mps2 == pytest.approx([0, 0, 9.81])
+
+
+def test_the_protocol_documents_examples_parse():
+    doc = Path(mcu_stream.__file__).with_name("mcu_stream_protocol.md").read_text()
+    examples = [m.encode() for m in re.findall(r"\$[TI],[^`\n<]*?\*[0-9A-F]{2}", doc)]
+    assert len(examples) == 2
+    record, info = parse_line(examples[0]), parse_line(examples[1])
+    assert record.t_device_ms == 583201 and record.gravity_mps2 == pytest.approx([-1.703, 0, 9.657])
+    assert info.startswith("fw 1.0")
 
 
 def test_encoding_round_trips_to_the_printed_precision():

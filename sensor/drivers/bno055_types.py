@@ -139,7 +139,8 @@ class CalibrationProfile:
 
     def __post_init__(self):
         values = self._values()
-        if len(values) != 11 or any(not -32768 <= int(v) <= 32767 for v in values):
+        if len(values) != 11 or any(not isinstance(v, (int, np.integer)) or not -32768 <= v <= 32767
+                                    for v in values):
             raise ValueError(f"CalibrationProfile values must be 11 signed 16-bit ints, got {values}")
 
     def _values(self) -> list[int]:

@@ -159,7 +159,8 @@ class HardwareTactileSensor(TactileSensor):
     @classmethod
     def from_stream(cls, stream: MicrocontrollerStream, **options) -> "HardwareTactileSensor":
         options.setdefault("background", True)
-        return cls(StreamSource(stream), clock=stream.clock, **options)
+        options.setdefault("clock", stream.clock)
+        return cls(StreamSource(stream), **options)
 
     @property
     def is_open(self) -> bool:

@@ -1,7 +1,7 @@
 """A serial-port stand-in that speaks the BNO055 UART protocol (datasheet section 4.7)."""
 from __future__ import annotations
 
-from sensor.emulators.bno055_chip import BNO055Chip, WriteResult
+from sensor.emulators.bno055_chip import BNO055Chip
 from sensor.emulators.clock import FakeClock
 from sensor.emulators.fake_smbus import ChipBusy
 from sensor.emulators.faults import Fault, FaultInjector
