@@ -1,0 +1,92 @@
+import numpy as np
+import pytest
+
+from explorer.strategies import (ExplorationState, RandomStrategy, UniformStrategy, VarianceStrategy,
+                                 farthest_point_order, fibonacci_directions, make_strategy)
+from explorer.touch import ObjectPrior, Touch
+from reconstruction.gpis import GPIS
+
+PRIOR = ObjectPrior(np.zeros(3), np.full(3, 0.05))
+
+
+def test_fibonacci_directions_are_unit_and_evenly_spread():
+    d = fibonacci_directions(200)
+    np.testing.assert_allclose(np.linalg.norm(d, axis=1), 1.0)
+    np.testing.assert_allclose(d.mean(0), 0, atol=0.01)
+    nearest = np.sort(np.linalg.norm(d[:, None] - d[None], axis=-1), axis=1)[:, 1]
+    assert nearest.max() / nearest.min() < 1.6
+
+
+def test_farthest_point_order_spreads_the_first_touches():
+    d = fibonacci_directions(100)
+    order = farthest_point_order(d)
+    first_six = d[order[:6]]
+    gaps = np.linalg.norm(first_six[:, None] - first_six[None], axis=-1) + 3 * np.eye(6)
+    assert gaps.min() > 1.0  # more than 60 deg apart
+
+
+def test_uniform_touches_aim_at_the_prior_centre_from_its_box():
+    strategy = UniformStrategy(directions=20)
+    touches = strategy.propose(ExplorationState(PRIOR), 5)
+    assert len(touches) == 5
+    for t in touches:
+        assert np.max(np.abs(t.target_m)) == pytest.approx(0.05)
+        towards_centre = -t.target_m / np.linalg.norm(t.target_m)
+        np.testing.assert_allclose(t.approach_dir, towards_centre, atol=1e-12)
+    strategy.accepted(touches[0])
+    assert not np.allclose(strategy.propose(ExplorationState(PRIOR), 1)[0].target_m, touches[0].target_m)
+
+
+def test_random_strategy_is_reproducible_from_its_seed():
+    a = RandomStrategy(3).propose(ExplorationState(PRIOR), 4)
+    b = RandomStrategy(3).propose(ExplorationState(PRIOR), 4)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x.target_m, y.target_m)
+
+
+def _sphere_gp(directions):
+    gp = GPIS(bounds=PRIOR.bounds())
+    gp.fit(0.04 * directions, directions)
+    return gp
+
+
+def test_variance_strategy_goes_to_the_unexplored_side_of_a_sphere():
+    """Contacts only on the upper half: the most uncertain surface is the lower half; the target
+    lies on the current 0-level set and the pad approaches along its inward normal there."""
+    d = fibonacci_directions(60)
+    gp = _sphere_gp(d[d[:, 2] > 0.2])
+    state = ExplorationState(PRIOR, gp, touches=40)
+    touches = VarianceStrategy().propose(state, 3)
+    assert all(t.target_m[2] < -0.01 for t in touches)
+    target = touches[0].target_m[None]
+    assert abs(gp.mean(target)[0]) < 2e-3
+    inward = gp.gradient(target)[0] / np.linalg.norm(gp.gradient(target)[0])
+    assert np.dot(touches[0].approach_dir, inward) > 0.99
+    assert touches[0].score >= touches[1].score >= touches[2].score
+    for a in touches:
+        for b in touches:
+            if a is not b:
+                assert np.linalg.norm(a.target_m - b.target_m) >= 0.015
+
+
+def test_variance_strategy_avoids_unreachable_targets():
+    d = fibonacci_directions(60)
+    gp = _sphere_gp(d[d[:, 2] > 0.2])
+    first = VarianceStrategy().propose(ExplorationState(PRIOR, gp, touches=40), 1)[0]
+    state = ExplorationState(PRIOR, gp, touches=40, unreachable_m=[first.target_m])
+    second = VarianceStrategy().propose(state, 1)[0]
+    assert np.linalg.norm(second.target_m - first.target_m) > 0.01
+
+
+def test_variance_strategy_starts_uniform():
+    touches = VarianceStrategy().propose(ExplorationState(PRIOR), 2)
+    assert all(t.strategy == "uniform" for t in touches)
+
+
+def test_unknown_strategy_and_bad_touches():
+    with pytest.raises(ValueError, match="unknown strategy"):
+        make_strategy("greedy")
+    with pytest.raises(ValueError, match="non-zero approach"):
+        Touch(np.zeros(3), np.zeros(3))
+    with pytest.raises(ValueError, match="positive"):
+        ObjectPrior(np.zeros(3), np.array([0.1, 0.0, 0.1]))
