@@ -7,8 +7,7 @@ are SI (metres, radians, pascals, seconds) except where a name says ``_deg``; ax
 """
 from reconstruction.figures.error_colours import distances_to_surface, error_colours
 from reconstruction.figures.error_views import (edge_error_view, edge_error_view_figure, edge_piece_errors,
-                                                error_coloured_views, error_coloured_views_figure,
-                                                sharp_edges)
+                                                error_coloured_views, error_coloured_views_figure)
 from reconstruction.figures.learning_curves import error_vs_touches, error_vs_touches_figure
 from reconstruction.figures.normal_error import normal_error_vs_tilt, normal_error_vs_tilt_figure
 from reconstruction.figures.potential_slice import potential_slice, potential_slice_figure
@@ -22,5 +21,5 @@ __all__ = [
     "error_colours", "error_coloured_views", "error_coloured_views_figure", "error_vs_touches",
     "error_vs_touches_figure", "normal_error_vs_tilt", "normal_error_vs_tilt_figure",
     "orientation_change_deg", "potential_slice", "potential_slice_figure", "running_baseline",
-    "sensor_traces", "sensor_traces_figure", "sharp_edges",
+    "sensor_traces", "sensor_traces_figure",
 ]

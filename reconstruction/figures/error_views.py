@@ -11,6 +11,7 @@ from typing import Sequence
 
 import numpy as np
 
+from objects.features import SHARP_ANGLE_RAD, sharp_edges
 from reconstruction.figures.canvas import MM_PER_M, check_png_path, finite_array, new_figure, save_png
 from reconstruction.figures.error_colours import (colour_scale_m, distances_to_surface, error_colour_map,
                                                   error_colours)
@@ -32,19 +33,6 @@ def view_direction(elevation_deg: float, azimuth_deg: float) -> np.ndarray:
                      np.sin(elevation)])
 
 
-def sharp_edges(mesh, angle_threshold_deg: float = 30.0) -> np.ndarray:
-    """Edges where neighbouring faces meet at more than ``angle_threshold_deg``.
-
-    Returns
-    -------
-    (k, 2, 3) float, segment end points, the mesh's frame, metres.
-    """
-    if not 0 < angle_threshold_deg < 180:
-        raise ValueError(f"angle_threshold_deg must be in (0, 180), got {angle_threshold_deg}")
-    sharp = np.degrees(mesh.face_adjacency_angles) > angle_threshold_deg
-    return np.asarray(mesh.vertices)[mesh.face_adjacency_edges[sharp]]
-
-
 def error_coloured_views_figure(reconstruction, truth, contacts_m,
                                 views: Sequence[Sequence[float]] = DEFAULT_VIEWS,
                                 max_error_m: float | None = None, max_faces: int = 3000):
@@ -53,14 +41,21 @@ def error_coloured_views_figure(reconstruction, truth, contacts_m,
     _check_mesh(truth, "truth")
     contacts = finite_array(contacts_m, "contacts_m", (None, 3))
     views = _check_views(views)
-    vertices, faces = simplify_to(reconstruction.vertices, reconstruction.faces, max_faces)
+    # Errors are measured at the full-resolution vertices, then averaged onto the drawn faces,
+    # so simplification changes the picture's detail but not the numbers.
+    vertex_errors = distances_to_surface(reconstruction.vertices, truth)
+    full_faces = np.asarray(reconstruction.faces)
+    full_face_errors = vertex_errors[full_faces].mean(1)
+    vertices, faces, cluster = simplify_to(reconstruction.vertices, full_faces, max_faces)
+    merged_errors = (np.bincount(cluster, weights=vertex_errors, minlength=len(vertices))
+                     / np.maximum(np.bincount(cluster, minlength=len(vertices)), 1))
+    face_errors = merged_errors[faces].mean(1)
     triangles = vertices[faces]
-    face_errors = distances_to_surface(triangles.mean(1), truth)
-    scale = colour_scale_m(face_errors, max_error_m)
+    scale = colour_scale_m(vertex_errors, max_error_m)
     colours = error_colours(face_errors, scale)
     normals = _unit_normals(triangles)
     contact_normals = _normals_under(contacts, triangles, normals)
-    limits = _cube_limits(np.vstack([vertices, contacts]))
+    limits = _axis_limits(np.vstack([vertices, contacts]))
 
     figure, axes = _view_grid(views, limits)
     for ax, view in zip(axes, views):
@@ -72,10 +67,10 @@ def error_coloured_views_figure(reconstruction, truth, contacts_m,
             ax.scatter(*(MM_PER_M * visible.T), s=7, c="black", depthshade=False, zorder=2,
                        label="contacts")
     _error_colour_bar(figure, axes, scale, "distance to ground truth (mm)")
-    area = _triangle_areas(triangles)
-    mean_mm = MM_PER_M * float(np.sum(area * face_errors) / np.sum(area))
+    area = _triangle_areas(np.asarray(reconstruction.vertices, float)[full_faces])
+    mean_mm = MM_PER_M * float(np.sum(area * full_face_errors) / max(np.sum(area), 1e-30))
     figure.suptitle(f"Reconstruction coloured by distance to ground truth: area-weighted mean "
-                    f"{mean_mm:.2f} mm, max {MM_PER_M * face_errors.max():.2f} mm, "
+                    f"{mean_mm:.2f} mm, max {MM_PER_M * vertex_errors.max():.2f} mm, "
                     f"{len(contacts)} contacts (black)", fontsize=11)
     return figure
 
@@ -85,9 +80,10 @@ def error_coloured_views(reconstruction, truth, contacts_m, path,
                          max_error_m: float | None = None, max_faces: int = 3000):
     """Write the reconstruction, coloured by its distance to the ground truth, from a few viewpoints.
 
-    Each face's colour is the distance from its centre to the closest point of ``truth``: green
-    at 0, yellow at half the scale, red at ``max_error_m`` and above; a colour bar shows the scale
-    in mm. Contacts are black dots.
+    Colours show the distance from the reconstruction's vertices to the closest point of
+    ``truth`` (averaged over each drawn face): green at 0, yellow at half the scale, red at
+    ``max_error_m`` and above; a colour bar shows the scale in mm. Contacts are black dots. The
+    title gives the area-weighted mean and the largest distance of the full-resolution mesh.
 
     Parameters
     ----------
@@ -103,7 +99,7 @@ def error_coloured_views(reconstruction, truth, contacts_m, path,
     views : sequence of (elevation_deg, azimuth_deg)
         One panel per viewpoint, matplotlib's ``view_init`` convention.
     max_error_m : float, optional
-        Distance shown as full red, metres; defaults to the largest face error.
+        Distance shown as full red, metres; defaults to the largest vertex error.
     max_faces : int
         Face budget per view before simplification.
 
@@ -118,25 +114,25 @@ def error_coloured_views(reconstruction, truth, contacts_m, path,
 
 def edge_error_view_figure(truth, reconstruction, edges_m=None,
                            views: Sequence[Sequence[float]] = DEFAULT_VIEWS,
-                           max_error_m: float | None = None, angle_threshold_deg: float = 30.0,
+                           max_error_m: float | None = None, min_angle_rad: float = SHARP_ANGLE_RAD,
                            max_faces: int = 3000):
     """The Figure of :func:`edge_error_view` (not written)."""
     _check_mesh(truth, "truth")
     _check_mesh(reconstruction, "reconstruction")
     views = _check_views(views)
     if edges_m is None:
-        edges_m = sharp_edges(truth, angle_threshold_deg)
+        edges_m = sharp_edges(truth, min_angle_rad)
     edges = finite_array(edges_m, "edges_m", (None, 2, 3))
     if len(edges) == 0:
         raise ValueError("the truth has no sharp edges to show (edges_m is empty); lower "
-                         "angle_threshold_deg or pass edges_m")
+                         "min_angle_rad or pass edges_m")
     pieces, piece_errors = edge_piece_errors(edges, reconstruction)
     scale = colour_scale_m(piece_errors, max_error_m)
     colours = error_colours(piece_errors, scale)
-    vertices, faces = simplify_to(reconstruction.vertices, reconstruction.faces, max_faces)
+    vertices, faces, _ = simplify_to(reconstruction.vertices, reconstruction.faces, max_faces)
     triangles = vertices[faces]
     normals = _unit_normals(triangles)
-    limits = _cube_limits(np.vstack([vertices, edges.reshape(-1, 3)]))
+    limits = _axis_limits(np.vstack([vertices, edges.reshape(-1, 3)]))
 
     from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
@@ -159,7 +155,7 @@ def edge_error_view_figure(truth, reconstruction, edges_m=None,
 
 def edge_error_view(truth, reconstruction, path, edges_m=None,
                     views: Sequence[Sequence[float]] = DEFAULT_VIEWS,
-                    max_error_m: float | None = None, angle_threshold_deg: float = 30.0,
+                    max_error_m: float | None = None, min_angle_rad: float = SHARP_ANGLE_RAD,
                     max_faces: int = 3000):
     """Write the truth's sharp edges coloured by their distance to the reconstruction.
 
@@ -177,11 +173,12 @@ def edge_error_view(truth, reconstruction, path, edges_m=None,
         PNG file to write.
     edges_m : (k, 2, 3) float, optional
         Sharp edges of the truth, metres (e.g. ``objects.load(name).sharp_edges``); computed from
-        ``truth`` with :func:`sharp_edges` when omitted.
+        ``truth`` with :func:`objects.features.sharp_edges` when omitted.
     views, max_error_m, max_faces
         As in :func:`error_coloured_views`.
-    angle_threshold_deg : float
-        Dihedral angle above which an edge of ``truth`` is sharp (used without ``edges_m``).
+    min_angle_rad : float
+        Angle between neighbouring face normals above which an edge of ``truth`` is sharp,
+        radians (used without ``edges_m``; default 30 deg).
 
     Returns
     -------
@@ -189,7 +186,7 @@ def edge_error_view(truth, reconstruction, path, edges_m=None,
     """
     check_png_path(path)
     return save_png(edge_error_view_figure(truth, reconstruction, edges_m, views, max_error_m,
-                                           angle_threshold_deg, max_faces), path)
+                                           min_angle_rad, max_faces), path)
 
 
 def edge_piece_errors(edges_m, reconstruction, piece_m: float = EDGE_PIECE_M
@@ -227,6 +224,8 @@ def split_segments(segments: np.ndarray, max_length_m: float) -> np.ndarray:
 
 # ---------------------------------------------------------------------- drawing helpers
 def _view_grid(views, limits):
+    from matplotlib.ticker import MaxNLocator
+
     figure = new_figure(3.8 * len(views) + 1.2, 4.8)
     axes = []
     for i, (elevation, azimuth) in enumerate(views):
@@ -238,8 +237,12 @@ def _view_grid(views, limits):
         for set_label, label in zip((ax.set_xlabel, ax.set_ylabel, ax.set_zlabel), "xyz"):
             set_label(f"{label} (mm)", fontsize=8, labelpad=-2)
         ax.tick_params(labelsize=7, pad=-1)
-        ax.set_box_aspect((1, 1, 1), zoom=0.95)
-        ax.set_title(f"elevation {elevation:g}°, azimuth {azimuth:g}°", fontsize=9, pad=22)
+        for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+            axis.set_major_locator(MaxNLocator(4))
+        ax.set_box_aspect(tuple(limits[:, 1] - limits[:, 0]), zoom=0.95)
+        # Seen from below, matplotlib draws the x/y tick labels on top: put the title underneath.
+        ax.set_title(f"elevation {elevation:g}°, azimuth {azimuth:g}°", fontsize=9,
+                     **(dict(pad=22) if elevation >= 0 else dict(y=-0.1)))
         axes.append(ax)
     figure.subplots_adjust(left=0.03, right=0.88, bottom=0.02, top=0.84, wspace=0.12)
     return figure, axes
@@ -298,10 +301,16 @@ def _normals_under(points: np.ndarray, triangles: np.ndarray, normals: np.ndarra
     return normals[face]
 
 
-def _cube_limits(points: np.ndarray) -> np.ndarray:
-    """(3, 2) lower and upper limit per axis of a cube around all points, metres."""
+def _axis_limits(points: np.ndarray) -> np.ndarray:
+    """(3, 2) lower and upper limit per axis around all points, metres.
+
+    Each axis spans its own extent plus 5 %, but at least a quarter of the longest extent, so
+    flat objects keep a readable thickness; the plot box takes these proportions (equal scale).
+    """
     lo, hi = points.min(0), points.max(0)
-    centre, half = 0.5 * (lo + hi), 0.525 * float(np.max(hi - lo))
+    longest = max(float(np.max(hi - lo)), 1e-6)
+    half = 0.525 * np.maximum(hi - lo, 0.25 * longest)
+    centre = 0.5 * (lo + hi)
     return np.column_stack([centre - half, centre + half])
 
 

@@ -39,7 +39,9 @@ def potential_slice_figure(gpis_with, gpis_without, truth_mesh, plane: str = "z"
     u, v, grid = _slice_grid(lo, hi, normal_axis, u_axis, v_axis, offset_m, int(resolution))
     section = _truth_section(truth_mesh, normal_axis, offset_m)
 
-    figure = new_figure(5.2 * len(panels) + 0.4, 6.0, layout="constrained")
+    aspect = (v[-1] - v[0]) / (u[-1] - u[0])
+    figure = new_figure(5.2 * len(panels) + 0.4, float(np.clip(4.6 * aspect + 2.4, 3.6, 9.0)),
+                        layout="constrained")
     extent_mm = MM_PER_M * np.array([u[0], u[-1], v[0], v[-1]])
     for i, (gp, title) in enumerate(panels):
         ax = figure.add_subplot(1, len(panels), i + 1)
@@ -47,10 +49,10 @@ def potential_slice_figure(gpis_with, gpis_without, truth_mesh, plane: str = "z"
         scale, label = (MM_PER_M, "GP mean f (mm, ≈ signed distance near the surface)") \
             if gp.use_normals else (1.0, "GP mean f (unitless, prior +1 inside, −1 outside)")
         values = scale * values
-        limit = max(float(np.percentile(np.abs(values), 99)), 1e-12)
         image = ax.imshow(values, origin="lower", extent=extent_mm, cmap=POTENTIAL_COLOUR_MAP,
-                          vmin=-limit, vmax=limit, interpolation="bilinear")
+                          norm=_centred_norm(values), interpolation="bilinear")
         bar = figure.colorbar(image, ax=ax, orientation="horizontal", fraction=0.05, aspect=30)
+        bar.set_ticks(_two_sided_ticks(image.norm.vmin, image.norm.vmax))
         bar.set_label(label, fontsize=9)
         bar.ax.tick_params(labelsize=8)
         if values.min() < 0 < values.max():
@@ -108,6 +110,27 @@ def potential_slice(gpis_with, gpis_without, truth_mesh, plane: str = "z", offse
     check_png_path(path)
     return save_png(potential_slice_figure(gpis_with, gpis_without, truth_mesh, plane, offset_m,
                                            contact_band_m, resolution, margin), path)
+
+
+def _centred_norm(values: np.ndarray):
+    """White at f = 0; each sign saturates at its own 99th percentile, so a shallow inside and a
+    deep outside both show their full colour."""
+    from matplotlib.colors import TwoSlopeNorm
+
+    magnitude = max(float(np.percentile(np.abs(values), 99)), 1e-12)
+    inside, outside = values[values > 0], -values[values < 0]
+    top = float(np.percentile(inside, 99)) if inside.size else magnitude
+    bottom = float(np.percentile(outside, 99)) if outside.size else magnitude
+    return TwoSlopeNorm(vcenter=0.0, vmin=-max(bottom, 1e-12), vmax=max(top, 1e-12))
+
+
+def _two_sided_ticks(low: float, high: float) -> np.ndarray:
+    """Round colour-bar ticks chosen separately below and above 0 (the two slopes differ)."""
+    from matplotlib.ticker import MaxNLocator
+
+    locator = MaxNLocator(3)
+    ticks = np.concatenate([locator.tick_values(low, 0.0), locator.tick_values(0.0, high)])
+    return np.unique(ticks[(ticks >= low) & (ticks <= high)])
 
 
 def _scene_box(gps, truth_mesh, margin: float) -> tuple[np.ndarray, np.ndarray]:
