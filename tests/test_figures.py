@@ -194,7 +194,7 @@ def test_error_view_numbers_do_not_depend_on_the_drawing_simplification():
     truth = trimesh.creation.icosphere(subdivisions=4, radius=RADIUS)
     fine = displaced_sphere(truth)
     titles = [error_coloured_views_figure(fine, truth, np.zeros((0, 3)), views=((30, 45),),
-                                          max_faces=budget)._suptitle.get_text()
+                                          max_faces=budget).get_suptitle()
               for budget in (300, 10 * len(fine.faces))]
     assert titles[0] == titles[1]
     assert "max 5.00 mm" in titles[0]
