@@ -1,1 +1,42 @@
-"""robots package."""
+"""Robot arms with a compliant tactile fingertip: specs, kinematics, IK and the PyBullet arm.
+
+Public API (see robots/README.md):
+
+* specs: :func:`load`, :func:`names`, :func:`register`, :class:`RobotSpec`;
+* kinematics: :class:`ArmKinematics` (FK/Jacobian from the URDF), :class:`PadIK` / :func:`solve_pad_ik`;
+* simulation: :class:`SimWorld`, :class:`TableSpec`, :class:`ObjectHandle`, :class:`SimArm`,
+  :class:`EncoderModel`, :class:`ArmContact`.
+
+Heavy modules (torch, pybullet) are imported on first use of their names, so that importing
+``robots.interface`` stays light.
+"""
+from __future__ import annotations
+
+import importlib
+
+from robots.registry import RobotRegistry, load, names, register
+from robots.spec import RobotSpec
+
+_LAZY = {
+    "ArmKinematics": "robots.kinematics",
+    "LinkPoses": "robots.kinematics",
+    "PadIK": "robots.ik",
+    "IKOptions": "robots.ik",
+    "IKResult": "robots.ik",
+    "solve_pad_ik": "robots.ik",
+    "SimWorld": "robots.sim_world",
+    "TableSpec": "robots.sim_world",
+    "ObjectHandle": "robots.sim_world",
+    "SimArm": "robots.sim_arm",
+    "EncoderModel": "robots.sim_arm",
+    "ArmContact": "robots.sim_arm",
+    "MoveNotReachedError": "robots.sim_arm",
+}
+
+__all__ = ["RobotRegistry", "RobotSpec", "load", "names", "register", *_LAZY]
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'robots' has no attribute {name!r}")

@@ -1,0 +1,336 @@
+"""Batched inverse kinematics for the pad: reach a point with the pad face along an approach axis.
+
+Task (5 constraints, roll about the approach axis free): put the pad face centre at ``p*`` and
+turn the pad's +z face axis along the approach direction ``a*`` (into the surface). Springs are
+held at 0 (the commanded pose).
+
+Method: Levenberg-Marquardt in torch (float64), batched over targets x candidates, with joint
+limits enforced by clamping plus an active set (joints pressed against a limit are frozen for the
+step). Each target gets ``n_roll_candidates`` starts from the seed that are first pulled towards
+full poses with evenly spaced roll angles about ``a*`` (spreading the solutions over different
+rolls and arm postures), then freed; plus ``n_random_seeds`` uniformly random starts. Per target the
+successful candidate closest to the seed is returned; when none succeeds the best one is returned
+with ``success = False``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from robots.kinematics import DTYPE, ArmKinematics
+
+POLISH_FRACTION = 0.01
+"""A target stops iterating once a candidate is within this fraction of both tolerances."""
+
+
+@dataclass(frozen=True)
+class IKOptions:
+    """Solver settings (lengths in metres, angles in radians).
+
+    Attributes
+    ----------
+    n_roll_candidates : int
+        Starts per target pulled towards evenly spaced roll angles about the approach axis.
+    n_random_seeds : int
+        Extra uniformly random starts per target.
+    roll_guided_iterations : int
+        Iterations spent pulling roll candidates towards their roll before freeing the roll.
+    max_iterations : int
+        Iteration budget per round.
+    max_rounds : int
+        Rounds; targets still unsolved after a round restart from fresh random configurations.
+    position_tolerance_m, angle_tolerance_rad : float
+        Success thresholds on the pad position and approach-axis errors.
+    orientation_scale_m : float
+        Weight of 1 rad of orientation error relative to 1 m of position error.
+    initial_damping : float
+        Starting Levenberg-Marquardt damping (adapted per candidate).
+    seed : int
+        Seed for the random starts.
+    """
+
+    n_roll_candidates: int = 8
+    n_random_seeds: int = 4
+    roll_guided_iterations: int = 10
+    max_iterations: int = 60
+    max_rounds: int = 3
+    position_tolerance_m: float = 1e-3
+    angle_tolerance_rad: float = math.radians(1.0)
+    orientation_scale_m: float = 0.1
+    initial_damping: float = 1e-2
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.n_roll_candidates < 0 or self.n_random_seeds < 0 or self.n_roll_candidates + self.n_random_seeds < 1:
+            raise ValueError("IKOptions needs at least one candidate (roll candidates + random seeds)")
+        if self.max_iterations < 1 or self.max_rounds < 1 or self.roll_guided_iterations < 0:
+            raise ValueError("max_iterations and max_rounds must be >= 1, roll_guided_iterations >= 0")
+        if self.roll_guided_iterations >= self.max_iterations:
+            raise ValueError("roll_guided_iterations must be below max_iterations")
+        if not (self.position_tolerance_m > 0 and self.angle_tolerance_rad > 0 and self.orientation_scale_m > 0
+                and self.initial_damping > 0):
+            raise ValueError("IK tolerances, orientation scale and damping must be positive")
+
+
+@dataclass(frozen=True)
+class IKResult:
+    """Per-target IK outcome.
+
+    Attributes
+    ----------
+    q_rad : (n, dof) float
+        Joint positions (the best candidate even when it failed), radians.
+    success : (n,) bool
+        Both errors within tolerance.
+    position_error_m : (n,) float
+        Distance from the pad face centre to the target, metres.
+    angle_error_rad : (n,) float
+        Angle between the pad's +z axis and the approach direction, radians.
+    """
+
+    q_rad: np.ndarray
+    success: np.ndarray
+    position_error_m: np.ndarray
+    angle_error_rad: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.success)
+
+
+def _unit_rows(values, name: str) -> np.ndarray:
+    array = np.asarray(values, dtype=float)
+    if array.ndim == 1:
+        array = array[None]
+    if array.ndim != 2 or array.shape[1] != 3 or not np.all(np.isfinite(array)):
+        raise ValueError(f"{name} must have shape (n, 3) and be finite, got {np.shape(values)}")
+    return array
+
+
+def approach_frames(approach: torch.Tensor, roll_rad: torch.Tensor) -> torch.Tensor:
+    """Rotation matrices (..., 3, 3) whose z column is ``approach`` (..., 3, unit) rolled by ``roll_rad``."""
+    z = approach
+    helper = torch.zeros_like(z)
+    use_x = z[..., 0].abs() < 0.9
+    helper[..., 0] = use_x.to(DTYPE)
+    helper[..., 1] = (~use_x).to(DTYPE)
+    x0 = torch.linalg.cross(helper, z)
+    x0 = x0 / torch.linalg.norm(x0, dim=-1, keepdim=True)
+    y0 = torch.linalg.cross(z, x0)
+    c, s = torch.cos(roll_rad).unsqueeze(-1), torch.sin(roll_rad).unsqueeze(-1)
+    x = c * x0 + s * y0
+    y = torch.linalg.cross(z, x)
+    return torch.stack([x, y, z], dim=-1)
+
+
+def _rotation_vector(rot: torch.Tensor) -> torch.Tensor:
+    """Axis-angle vectors (..., 3) of rotation matrices (..., 3, 3)."""
+    skew = torch.stack([rot[..., 2, 1] - rot[..., 1, 2], rot[..., 0, 2] - rot[..., 2, 0],
+                        rot[..., 1, 0] - rot[..., 0, 1]], dim=-1)
+    cos = ((rot[..., 0, 0] + rot[..., 1, 1] + rot[..., 2, 2] - 1.0) / 2.0).clamp(-1.0, 1.0)
+    sin = torch.linalg.norm(skew, dim=-1) / 2.0
+    angle = torch.atan2(sin, cos)
+    scale = torch.where(sin > 1e-9, angle / (2.0 * sin.clamp(min=1e-12)), torch.full_like(sin, 0.5))
+    return skew * scale.unsqueeze(-1)
+
+
+class PadIK:
+    """Batched pad IK for one robot; see the module docstring.
+
+    Parameters
+    ----------
+    kinematics : ArmKinematics
+    options : IKOptions
+    """
+
+    def __init__(self, kinematics: ArmKinematics, options: IKOptions = IKOptions()):
+        self.kin = kinematics
+        self.options = options
+        self._lower = torch.as_tensor(kinematics.lower_rad, dtype=DTYPE)
+        self._upper = torch.as_tensor(kinematics.upper_rad, dtype=DTYPE)
+        self._pad = kinematics.link_index(kinematics.spec.pad_link)
+
+    def _residual(self, transforms, target_p, target_a, target_r, roll_weight):
+        """Weighted residual (M, 6) and Jacobian (M, 6, dof) at the current configurations."""
+        pad = transforms[self._pad]
+        p, rot = pad[:, :3, 3], pad[:, :3, :3]
+        z = rot[:, :, 2]
+        jac = self.kin.jacobian_tensor(transforms, self.kin.spec.pad_link)
+        # rotation that turns z onto the approach direction (roll-free part) ...
+        cross = torch.linalg.cross(z, target_a)
+        sin = torch.linalg.norm(cross, dim=-1, keepdim=True)
+        angle = torch.atan2(sin, (z * target_a).sum(-1, keepdim=True))
+        tilt = torch.where(sin > 1e-12, cross / sin.clamp(min=1e-12) * angle, cross)
+        # ... plus, for roll-guided candidates, the full rotation to the rolled target frame
+        full = _rotation_vector(target_r @ rot.transpose(-1, -2))
+        w = roll_weight.unsqueeze(-1)
+        omega = w * full + (1.0 - w) * tilt
+        project = torch.eye(3, dtype=DTYPE) - (1.0 - w).unsqueeze(-1) * z.unsqueeze(-1) * z.unsqueeze(-2)
+        jac_w = project @ jac[:, 3:]
+        scale = self.options.orientation_scale_m
+        residual = torch.cat([target_p - p, scale * omega], dim=-1)
+        jac = torch.cat([jac[:, :3], scale * jac_w], dim=1)
+        return residual, jac, p, z
+
+    def _step(self, q, residual, jac, damping):
+        eye = torch.eye(q.shape[1], dtype=DTYPE)
+        free = torch.ones_like(q)
+        for _ in range(2):
+            jac_free = jac * free.unsqueeze(1)
+            lhs = jac_free.transpose(1, 2) @ jac_free + damping.reshape(-1, 1, 1) * eye
+            rhs = (jac_free.transpose(1, 2) @ residual.unsqueeze(-1)).squeeze(-1)
+            dq = torch.linalg.solve(lhs, rhs) * free
+            at_upper = (q >= self._upper - 1e-9) & (dq > 0)
+            at_lower = (q <= self._lower + 1e-9) & (dq < 0)
+            blocked = at_upper | at_lower
+            if not blocked.any():
+                break
+            free = free * (~blocked).to(DTYPE)
+        return torch.minimum(torch.maximum(q + dq, self._lower), self._upper)
+
+    def solve(self, positions_m, approach_dirs, q_seed=None) -> IKResult:
+        """Solve for each target row.
+
+        Parameters
+        ----------
+        positions_m : (n, 3) float
+            Pad face centre targets, world frame, metres.
+        approach_dirs : (n, 3) float
+            Directions the pad's +z face axis should point along (into the surface); normalised here.
+        q_seed : (dof,) or (n, dof) float or None
+            Start configuration(s) and preferred solution (default: the spec's home), radians.
+        """
+        targets, approach, seed = self._checked_inputs(positions_m, approach_dirs, q_seed)
+        n, dof = len(targets), self.kin.dof
+        opts = self.options
+        generator = torch.Generator().manual_seed(opts.seed)
+        target_p = torch.as_tensor(targets, dtype=DTYPE)
+        target_a = torch.as_tensor(approach, dtype=DTYPE)
+        seed_t = torch.as_tensor(seed, dtype=DTYPE)
+        best_q = seed_t.clone()
+        best_score = torch.full((n,), math.inf, dtype=DTYPE)
+        pos_err = torch.full((n,), math.inf, dtype=DTYPE)
+        ang_err = torch.full((n,), math.inf, dtype=DTYPE)
+        success = torch.zeros(n, dtype=torch.bool)
+        unsolved = torch.arange(n)
+        for round_index in range(opts.max_rounds):
+            if len(unsolved) == 0:
+                break
+            k = len(unsolved)
+            n_guided = opts.n_roll_candidates if round_index == 0 else 0
+            n_random = opts.n_random_seeds + opts.n_roll_candidates - n_guided if round_index else opts.n_random_seeds
+            span = self._upper - self._lower
+            random = self._lower + span * torch.rand(k, n_random, dof, generator=generator, dtype=DTYPE)
+            starts = torch.cat([seed_t[unsolved].unsqueeze(1).expand(k, n_guided, dof), random], dim=1)
+            q, ok, p_err, a_err = self._run(starts, target_p[unsolved], target_a[unsolved], n_guided)
+            # per target: closest successful candidate to the seed, else the smallest error
+            distance = torch.linalg.norm(q - seed_t[unsolved].unsqueeze(1), dim=-1)
+            normalised = p_err / opts.position_tolerance_m + a_err / opts.angle_tolerance_rad
+            score = torch.where(ok, distance, 1e6 + normalised)
+            pick = score.argmin(dim=1)
+            rows = torch.arange(k)
+            improved = score[rows, pick] < best_score[unsolved]
+            chosen = unsolved[improved]
+            best_q[chosen] = q[rows, pick][improved]
+            best_score[chosen] = score[rows, pick][improved]
+            pos_err[chosen] = p_err[rows, pick][improved]
+            ang_err[chosen] = a_err[rows, pick][improved]
+            success[chosen] = ok[rows, pick][improved]
+            unsolved = unsolved[~success[unsolved]]
+        return IKResult(best_q.numpy().copy(), success.numpy().copy(), pos_err.numpy().copy(), ang_err.numpy().copy())
+
+    def _checked_inputs(self, positions_m, approach_dirs, q_seed):
+        targets = _unit_rows(positions_m, "positions_m")
+        approach = _unit_rows(approach_dirs, "approach_dirs")
+        if len(approach) != len(targets):
+            raise ValueError(f"{len(targets)} positions but {len(approach)} approach directions")
+        norms = np.linalg.norm(approach, axis=1)
+        if np.any(norms < 1e-9):
+            raise ValueError(f"approach_dirs rows {np.flatnonzero(norms < 1e-9).tolist()} are zero vectors")
+        n, dof = len(targets), self.kin.dof
+        seed = self.kin.spec.home_q if q_seed is None else np.asarray(q_seed, dtype=float)
+        if seed.shape == (dof,):
+            seed = np.broadcast_to(seed, (n, dof))
+        if seed.shape != (n, dof) or not np.all(np.isfinite(seed)):
+            raise ValueError(f"q_seed must have shape ({dof},) or ({n}, {dof}), got {np.shape(q_seed)}")
+        if np.any(seed < self.kin.lower_rad - 1e-9) or np.any(seed > self.kin.upper_rad + 1e-9):
+            raise ValueError("q_seed is outside the joint limits")
+        return targets, approach / norms[:, None], np.array(seed)
+
+    def _run(self, starts, target_p, target_a, n_guided):
+        """Levenberg-Marquardt from ``starts`` (k, c, dof) towards k targets.
+
+        Returns final q (k, c, dof), success (k, c), position and angle errors (k, c). A target
+        stops iterating as soon as one of its candidates succeeds.
+        """
+        opts = self.options
+        k, c, dof = starts.shape
+        rolls = torch.arange(c, dtype=DTYPE) * (2.0 * math.pi / max(n_guided, 1))
+        guided = (torch.arange(c) < n_guided).to(DTYPE)
+        # flat working tensors over (target, candidate); ``live`` lists the targets still iterating
+        q = starts.reshape(-1, dof).clone()
+        t_p = target_p.repeat_interleave(c, 0)
+        t_a = target_a.repeat_interleave(c, 0)
+        t_r = approach_frames(t_a, rolls.repeat(k))
+        weight = guided.repeat(k)
+        out_q = q.clone().reshape(k, c, dof)
+        out_p_err = torch.full((k, c), math.inf, dtype=DTYPE)
+        out_a_err = torch.full((k, c), math.inf, dtype=DTYPE)
+        live = torch.arange(k)
+        damping = torch.full((k * c,), opts.initial_damping, dtype=DTYPE)
+        best_cost = torch.full((k * c,), math.inf, dtype=DTYPE)
+        best_q, best_res, best_jac = q.clone(), None, None
+        best_p, best_z = torch.zeros(k * c, 3, dtype=DTYPE), torch.zeros(k * c, 3, dtype=DTYPE)
+        trial = q
+        guided_phase = n_guided > 0 and opts.roll_guided_iterations > 0
+        with torch.no_grad():
+            for iteration in range(opts.max_iterations + 1):
+                if guided_phase and iteration == opts.roll_guided_iterations:
+                    guided_phase = False
+                    weight = torch.zeros_like(weight)
+                    best_cost.fill_(math.inf)  # objective changed: re-evaluate from here
+                residual, jac, p, z = self._residual(self.kin.link_transforms(trial), t_p, t_a, t_r, weight)
+                cost = (residual**2).sum(-1)
+                better = cost < best_cost
+                best_cost = torch.where(better, cost, best_cost)
+                best_q = torch.where(better.unsqueeze(-1), trial, best_q)
+                best_p = torch.where(better.unsqueeze(-1), p, best_p)
+                best_z = torch.where(better.unsqueeze(-1), z, best_z)
+                best_res = residual if best_res is None else torch.where(better.unsqueeze(-1), residual, best_res)
+                best_jac = jac if best_jac is None else torch.where(better.reshape(-1, 1, 1), jac, best_jac)
+                damping = torch.where(better, damping / 3.0, damping * 4.0).clamp(1e-9, 1e6)
+                if guided_phase:
+                    trial = self._step(best_q, best_res, best_jac, damping)
+                    continue
+                p_err, a_err = self._errors(best_p, best_z, t_p, t_a)
+                polished = ((p_err <= POLISH_FRACTION * opts.position_tolerance_m)
+                            & (a_err <= POLISH_FRACTION * opts.angle_tolerance_rad)).reshape(-1, c)
+                done = polished.any(dim=1) if iteration < opts.max_iterations else torch.ones(len(live), dtype=torch.bool)
+                if done.any():
+                    out_q[live[done]] = best_q.reshape(-1, c, dof)[done]
+                    out_p_err[live[done]] = p_err.reshape(-1, c)[done]
+                    out_a_err[live[done]] = a_err.reshape(-1, c)[done]
+                    keep = (~done).repeat_interleave(c)
+                    live = live[~done]
+                    if len(live) == 0:
+                        break
+                    t_p, t_a, t_r, weight = t_p[keep], t_a[keep], t_r[keep], weight[keep]
+                    damping, best_cost, best_q = damping[keep], best_cost[keep], best_q[keep]
+                    best_p, best_z, best_res, best_jac = best_p[keep], best_z[keep], best_res[keep], best_jac[keep]
+                trial = self._step(best_q, best_res, best_jac, damping)
+        ok = (out_p_err <= opts.position_tolerance_m) & (out_a_err <= opts.angle_tolerance_rad)
+        return out_q, ok, out_p_err, out_a_err
+
+    def _errors(self, p, z, target_p, target_a):
+        pos_err = torch.linalg.norm(p - target_p, dim=-1)
+        cos = (z * target_a).sum(-1)
+        ang_err = torch.atan2(torch.linalg.norm(torch.linalg.cross(z, target_a), dim=-1), cos)
+        return pos_err, ang_err
+
+
+def solve_pad_ik(kinematics: ArmKinematics, positions_m, approach_dirs, q_seed=None,
+                 options: IKOptions = IKOptions()) -> IKResult:
+    """One-call form of :meth:`PadIK.solve`."""
+    return PadIK(kinematics, options).solve(positions_m, approach_dirs, q_seed)

@@ -1,0 +1,102 @@
+"""Quaternion and rotation-matrix helpers (numpy, float64).
+
+Quaternions are (w, x, y, z) unless a name says ``xyzw`` (PyBullet's order).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def as_unit_quat_wxyz(quat_wxyz, name: str = "quaternion") -> np.ndarray:
+    """Validate and normalise a (4,) quaternion (w, x, y, z)."""
+    quat = np.asarray(quat_wxyz, dtype=float)
+    if quat.shape != (4,) or not np.all(np.isfinite(quat)):
+        raise ValueError(f"{name} must be 4 finite numbers (w, x, y, z), got {quat_wxyz!r}")
+    norm = np.linalg.norm(quat)
+    if not 0.9 < norm < 1.1:
+        raise ValueError(f"{name} must be a unit quaternion (w, x, y, z), got norm {norm:.3g}")
+    return quat / norm
+
+
+def wxyz_to_xyzw(quat_wxyz) -> np.ndarray:
+    """(…, 4) (w, x, y, z) -> (x, y, z, w)."""
+    q = np.asarray(quat_wxyz, dtype=float)
+    return np.concatenate([q[..., 1:], q[..., :1]], axis=-1)
+
+
+def xyzw_to_wxyz(quat_xyzw) -> np.ndarray:
+    """(…, 4) (x, y, z, w) -> (w, x, y, z)."""
+    q = np.asarray(quat_xyzw, dtype=float)
+    return np.concatenate([q[..., 3:], q[..., :3]], axis=-1)
+
+
+def quat_to_matrix(quat_wxyz) -> np.ndarray:
+    """(…, 4) unit quaternions (w, x, y, z) -> (…, 3, 3) rotation matrices."""
+    q = np.asarray(quat_wxyz, dtype=float)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    rows = [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ]
+    return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
+
+
+def matrix_to_quat(matrix) -> np.ndarray:
+    """(…, 3, 3) rotation matrices -> (…, 4) unit quaternions (w, x, y, z) with w >= 0."""
+    m = np.asarray(matrix, dtype=float)
+    batch = m.shape[:-2]
+    m = m.reshape(-1, 3, 3)
+    quats = np.empty((m.shape[0], 4))
+    for i, r in enumerate(m):
+        trace = np.trace(r)
+        if trace > 0.0:
+            s = 2.0 * np.sqrt(1.0 + trace)
+            quats[i] = [0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s]
+        else:
+            k = int(np.argmax(np.diag(r)))
+            j, l = (k + 1) % 3, (k + 2) % 3
+            s = 2.0 * np.sqrt(1.0 + r[k, k] - r[j, j] - r[l, l])
+            q = np.empty(4)
+            q[0] = (r[l, j] - r[j, l]) / s
+            q[1 + k] = 0.25 * s
+            q[1 + j] = (r[j, k] + r[k, j]) / s
+            q[1 + l] = (r[l, k] + r[k, l]) / s
+            quats[i] = q
+    quats *= np.where(quats[:, :1] < 0.0, -1.0, 1.0)
+    quats /= np.linalg.norm(quats, axis=1, keepdims=True)
+    return quats.reshape(*batch, 4)
+
+
+def quat_multiply(a_wxyz, b_wxyz) -> np.ndarray:
+    """Hamilton product a * b of (…, 4) quaternions (w, x, y, z)."""
+    a = np.asarray(a_wxyz, dtype=float)
+    b = np.asarray(b_wxyz, dtype=float)
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ],
+        axis=-1,
+    )
+
+
+def rotation_angle_between(r_a, r_b) -> np.ndarray:
+    """Angle (rad) of the relative rotation between (…, 3, 3) matrices ``r_a`` and ``r_b``."""
+    rel = np.swapaxes(np.asarray(r_a, dtype=float), -1, -2) @ np.asarray(r_b, dtype=float)
+    cos = (np.trace(rel, axis1=-2, axis2=-1) - 1.0) / 2.0
+    return np.arccos(np.clip(cos, -1.0, 1.0))
+
+
+def angle_between_vectors(u, v) -> np.ndarray:
+    """Angle (rad) between (…, 3) vectors, robust near 0 and pi."""
+    u = np.asarray(u, dtype=float)
+    v = np.asarray(v, dtype=float)
+    cross = np.linalg.norm(np.cross(u, v), axis=-1)
+    dot = np.sum(u * v, axis=-1)
+    return np.arctan2(cross, dot)

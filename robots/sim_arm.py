@@ -1,0 +1,417 @@
+"""SimArm: a RobotSpec arm in a SimWorld, position-controlled, with the passive spring fingertip.
+
+Control: actuated joints use PyBullet POSITION_CONTROL with the URDF effort limits. Motions are
+commanded every control tick (``control_steps`` physics steps; 4 x 1/480 s = 120 Hz by default),
+and a guarded move calls its ``stop()`` predicate once per tick.
+
+Fingertip: the spring joints' default velocity motors are switched off (VELOCITY_CONTROL with
+force 0) and a pre-step hook applies ``tau = -k theta - c theta_dot`` in TORQUE_CONTROL before
+every physics step. The pad gets the spec's friction and contact softness.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from robots.interface import GuardedMoveResult, Robot
+from robots.pybullet_types import ContactPoint, JointInfo, JointState, LinkState
+from robots.rotations import quat_to_matrix, xyzw_to_wxyz
+from robots.sim_world import SimWorld, import_pybullet
+from robots.spec import RobotSpec
+from robots.urdf_check import check_spec_against_urdf
+from sensor.pad_state import PadState
+
+REACHED_TOLERANCE_RAD = 2e-3
+SETTLE_TIMEOUT_S = 1.0
+STABILITY_MARGIN = 2.0
+
+
+@dataclass(frozen=True)
+class EncoderModel:
+    """What the joint encoders add to the true joint angles.
+
+    Attributes
+    ----------
+    noise_std_rad : float
+        Standard deviation of white Gaussian noise, radians.
+    resolution_rad : float
+        Quantisation step, radians (0: none).
+    seed : int or None
+        Seed of the noise generator.
+    """
+
+    noise_std_rad: float = 0.0
+    resolution_rad: float = 0.0
+    seed: int | None = 0
+
+    def __post_init__(self) -> None:
+        if self.noise_std_rad < 0.0 or self.resolution_rad < 0.0:
+            raise ValueError(f"encoder noise and resolution must be >= 0, got {self}")
+
+
+@dataclass(frozen=True)
+class ArmContact:
+    """A contact between an arm link and something in the world (plain data).
+
+    Attributes
+    ----------
+    link : str
+        Arm link name.
+    other : str
+        Name of the touched body (object name, 'table', 'ground').
+    object_key : int or None
+        The touched object's :class:`ObjectHandle` key; None for table, ground or robots.
+    point_m : (3,) float
+        Contact point on the other body, world frame, metres.
+    normal : (3,) float
+        Outward surface normal of the other body at the point, world frame.
+    normal_force_n : float
+    """
+
+    link: str
+    other: str
+    object_key: int | None
+    point_m: np.ndarray
+    normal: np.ndarray
+    normal_force_n: float
+
+
+class MoveNotReachedError(RuntimeError):
+    """An unguarded move ended (settle timeout) away from its target, e.g. blocked by contact."""
+
+
+class SimArm(Robot):
+    """The simulated arm; implements :class:`robots.interface.Robot`.
+
+    Parameters
+    ----------
+    world : SimWorld
+    spec : RobotSpec
+    q_init_rad : (dof,) float or None
+        Initial joint positions (default: the spec's home).
+    spring_stiffness_nm_per_rad, spring_damping_nms_per_rad : float or None
+        Spring law (default: the spec's).
+    encoder : EncoderModel
+    control_steps : int
+        Physics steps per control tick.
+    position_gain, velocity_gain : float
+        PyBullet position-motor gains.
+    """
+
+    def __init__(
+        self,
+        world: SimWorld,
+        spec: RobotSpec,
+        q_init_rad=None,
+        spring_stiffness_nm_per_rad: float | None = None,
+        spring_damping_nms_per_rad: float | None = None,
+        encoder: EncoderModel = EncoderModel(),
+        control_steps: int = 4,
+        position_gain: float = 0.3,
+        velocity_gain: float = 1.0,
+    ):
+        check_spec_against_urdf(spec)
+        if control_steps < 1:
+            raise ValueError(f"control_steps must be >= 1, got {control_steps}")
+        self.world = world
+        self.spec = spec
+        self._pb = import_pybullet()
+        self._client = world.client
+        self.body = world.load_urdf(spec.urdf_path, spec.base_position_m, spec.base_quat_wxyz, fixed_base=True)
+        pb, client = self._pb, self._client
+        infos = [JointInfo.from_pybullet(pb.getJointInfo(self.body, i, physicsClientId=client))
+                 for i in range(pb.getNumJoints(self.body, physicsClientId=client))]
+        self._joint_index = {info.name: info.index for info in infos}
+        self._link_index = {info.child_link_name: info.index for info in infos}
+        self._link_name = {index: name for name, index in self._link_index.items()}
+        self._arm_joints = [self._joint_index[n] for n in spec.joint_names]
+        self._spring_joints = [self._joint_index[n] for n in spec.spring_joint_names]
+        self.lower_rad = np.array([infos[i].lower_rad for i in self._arm_joints])
+        self.upper_rad = np.array([infos[i].upper_rad for i in self._arm_joints])
+        self.effort_nm = np.array([infos[i].effort_nm for i in self._arm_joints])
+        self.velocity_limit_rad_s = np.array([infos[i].velocity_rad_s for i in self._arm_joints])
+        self._pad = self._link_index[spec.pad_link]
+        self._sensor_body = self._link_index[spec.sensor_body_link]
+        self.control_steps = int(control_steps)
+        self._gains = (float(position_gain), float(velocity_gain))
+        self.encoder = encoder
+        self._rng = np.random.default_rng(encoder.seed)
+        self.set_spring(
+            spec.spring_stiffness_nm_per_rad if spring_stiffness_nm_per_rad is None else spring_stiffness_nm_per_rad,
+            spec.spring_damping_nms_per_rad if spring_damping_nms_per_rad is None else spring_damping_nms_per_rad,
+        )
+        q0 = spec.home_q if q_init_rad is None else self._checked_q(q_init_rad, "q_init_rad")
+        for index, value in zip(self._arm_joints, q0):
+            pb.resetJointState(self.body, index, float(value), 0.0, physicsClientId=client)
+        for index in self._spring_joints:
+            pb.resetJointState(self.body, index, 0.0, 0.0, physicsClientId=client)
+        pb.setJointMotorControlArray(self.body, self._spring_joints, pb.VELOCITY_CONTROL,
+                                     targetVelocities=[0.0, 0.0], forces=[0.0, 0.0], physicsClientId=client)
+        pb.changeDynamics(
+            self.body, self._pad,
+            lateralFriction=spec.pad_lateral_friction,
+            contactStiffness=spec.pad_contact_stiffness_n_per_m,
+            contactDamping=spec.pad_contact_damping_ns_per_m,
+            physicsClientId=client,
+        )
+        self._command(q0, np.zeros(self.dof))
+        self._remove_hook = world.add_pre_step_hook(self._apply_spring_torque)
+
+    # ---- spring ------------------------------------------------------------------------------
+
+    def set_spring(self, stiffness_nm_per_rad: float, damping_nms_per_rad: float) -> None:
+        """Change the spring law ``tau = -k theta - c theta_dot`` (N m/rad, N m s/rad).
+
+        Raises
+        ------
+        ValueError
+            For negative values, or values the explicit per-step update cannot integrate stably
+            at this world's time step (``k dt^2 / I + 2 c dt / I`` must stay below 2, half the
+            stability bound, with ``I`` the module's inertia about the spring axis).
+        """
+        k, c = float(stiffness_nm_per_rad), float(damping_nms_per_rad)
+        if not k >= 0.0 or not c >= 0.0:
+            raise ValueError(f"spring stiffness and damping must be >= 0, got {k}, {c}")
+        dt = self.world.time_step_s
+        inertia = self.spring_inertia_kgm2()
+        load = k * dt * dt / inertia + 2.0 * c * dt / inertia
+        if load >= STABILITY_MARGIN:
+            raise ValueError(
+                f"spring k = {k} N m/rad, c = {c} N m s/rad is too stiff for time step {dt:.3g} s with the "
+                f"module's inertia {inertia:.3g} kg m^2 about the pivot (k dt^2/I + 2 c dt/I = {load:.2f}, "
+                f"must be < {STABILITY_MARGIN}); use a smaller time_step_s or a softer spring"
+            )
+        self.spring_stiffness_nm_per_rad = k
+        self.spring_damping_nms_per_rad = c
+
+    def spring_inertia_kgm2(self) -> float:
+        """Smallest inertia of the links the springs carry about either spring axis, kg m^2."""
+        pb, client = self._pb, self._client
+        inertias = []
+        for joint in self._spring_joints:
+            info = pb.getJointInfo(self.body, joint, physicsClientId=client)
+            frame = self.link_state(self._link_name[joint])
+            axis = frame.rotation @ np.asarray(info[13], dtype=float)
+            total = 0.0
+            for link in self._descendants(joint):
+                dynamics = pb.getDynamicsInfo(self.body, link, physicsClientId=client)
+                mass, principal = dynamics[0], np.asarray(dynamics[2], dtype=float)
+                raw = pb.getLinkState(self.body, link, computeForwardKinematics=1, physicsClientId=client)
+                com = np.asarray(raw[0], dtype=float)
+                rot = quat_to_matrix(xyzw_to_wxyz(raw[1]))
+                total += axis @ rot @ np.diag(principal) @ rot.T @ axis
+                total += mass * np.linalg.norm(np.cross(com - frame.position_m, axis)) ** 2
+            inertias.append(total)
+        return float(min(inertias))
+
+    def _descendants(self, link: int) -> list[int]:
+        """``link`` and every link below it."""
+        pb, client = self._pb, self._client
+        parents = {i: pb.getJointInfo(self.body, i, physicsClientId=client)[16]
+                   for i in range(pb.getNumJoints(self.body, physicsClientId=client))}
+        found = [link]
+        for index in sorted(parents):
+            if parents[index] in found:
+                found.append(index)
+        return found
+
+    def _apply_spring_torque(self, _t_s: float) -> None:
+        pb = self._pb
+        states = pb.getJointStates(self.body, self._spring_joints, physicsClientId=self._client)
+        k, c = self.spring_stiffness_nm_per_rad, self.spring_damping_nms_per_rad
+        torques = [-k * s[0] - c * s[1] for s in states]
+        pb.setJointMotorControlArray(self.body, self._spring_joints, pb.TORQUE_CONTROL, forces=torques,
+                                     physicsClientId=self._client)
+
+    def spring_angles(self) -> np.ndarray:
+        """True spring joint angles (2,), radians (not measurable on the real arm)."""
+        states = self._pb.getJointStates(self.body, self._spring_joints, physicsClientId=self._client)
+        return np.array([s[0] for s in states])
+
+    def apply_pad_wrench(self, force_n=(0.0, 0.0, 0.0), torque_nm=(0.0, 0.0, 0.0)) -> None:
+        """Push the sensor body with an external force (at its origin) and torque, world frame.
+
+        Acts during the next physics step only (call it from a pre-step hook to keep pushing).
+        """
+        pb = self._pb
+        state = self.link_state(self.spec.sensor_body_link)
+        pb.applyExternalForce(self.body, self._sensor_body, list(map(float, force_n)), state.position_m.tolist(),
+                              pb.WORLD_FRAME, physicsClientId=self._client)
+        pb.applyExternalTorque(self.body, self._sensor_body, list(map(float, torque_nm)), pb.WORLD_FRAME,
+                               physicsClientId=self._client)
+
+    # ---- Robot interface ---------------------------------------------------------------------
+
+    @property
+    def dof(self) -> int:
+        return self.spec.dof
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return self.spec.joint_names
+
+    def time_s(self) -> float:
+        return self.world.time_s
+
+    def true_joint_positions(self) -> np.ndarray:
+        """Actuated joint positions (dof,), radians, without encoder effects."""
+        return np.array([s.position_rad for s in self._joint_states(self._arm_joints)])
+
+    def joint_velocities(self) -> np.ndarray:
+        """Actuated joint velocities (dof,), rad/s."""
+        return np.array([s.velocity_rad_s for s in self._joint_states(self._arm_joints)])
+
+    def joint_positions(self) -> np.ndarray:
+        """Encoder readings (dof,), radians: true angles plus the encoder model's noise, quantised."""
+        q = self.true_joint_positions()
+        if self.encoder.noise_std_rad > 0.0:
+            q = q + self._rng.normal(0.0, self.encoder.noise_std_rad, q.shape)
+        if self.encoder.resolution_rad > 0.0:
+            q = np.round(q / self.encoder.resolution_rad) * self.encoder.resolution_rad
+        return q
+
+    def move_joints(self, q, speed_rad_s: float = 1.0) -> None:
+        """Move to ``q`` along a straight joint-space line and wait until it is reached.
+
+        Raises
+        ------
+        MoveNotReachedError
+            When the arm has not reached ``q`` within ``SETTLE_TIMEOUT_S`` after the motion.
+        """
+        target = self._checked_q(q, "q")
+        self._follow(target[None], stop=None, speed_rad_s=speed_rad_s)
+        error = np.max(np.abs(self.true_joint_positions() - target))
+        if error > REACHED_TOLERANCE_RAD:
+            raise MoveNotReachedError(
+                f"arm stopped {np.degrees(error):.2f} deg away from its target (blocked by a contact?)"
+            )
+
+    def guarded_move(self, path, stop: Callable[[], bool], speed_rad_s: float = 0.2) -> GuardedMoveResult:
+        """Follow ``path`` ((k, dof) radians) from the current position, checking ``stop()`` each tick.
+
+        The path is interpolated linearly so that the fastest joint moves at ``speed_rad_s``. When
+        ``stop()`` returns True the arm holds the position it has reached and the call returns.
+        """
+        path = np.asarray(path, dtype=float)
+        if path.ndim != 2 or path.shape[1] != self.dof or len(path) == 0:
+            raise ValueError(f"path must have shape (k, {self.dof}) with k >= 1, got {path.shape}")
+        for i, waypoint in enumerate(path):
+            self._checked_q(waypoint, f"path[{i}]")
+        if not callable(stop):
+            raise TypeError("stop must be a callable returning bool")
+        return self._follow(path, stop, speed_rad_s)
+
+    # ---- state -------------------------------------------------------------------------------
+
+    def link_state(self, link: str) -> LinkState:
+        """Pose and velocity of an arm link's URDF frame, world frame."""
+        if link not in self._link_index:
+            raise ValueError(f"robot {self.spec.name!r} has no link {link!r}; links: {sorted(self._link_index)}")
+        raw = self._pb.getLinkState(self.body, self._link_index[link], computeLinkVelocity=1,
+                                    computeForwardKinematics=1, physicsClientId=self._client)
+        return LinkState.from_pybullet(raw)
+
+    def pad_contacts(self) -> list[ContactPoint]:
+        """Raw contact points of the pad link (PyBullet types; robots/ internal)."""
+        raw = self._pb.getContactPoints(bodyA=self.body, linkIndexA=self._pad, physicsClientId=self._client)
+        return [ContactPoint.from_pybullet(c) for c in raw]
+
+    def contacts(self) -> list[ArmContact]:
+        """Every contact of any arm link with another body, as plain data."""
+        raw = self._pb.getContactPoints(bodyA=self.body, physicsClientId=self._client)
+        contacts = []
+        for c in map(ContactPoint.from_pybullet, raw):
+            if c.body_b == self.body:
+                continue
+            contacts.append(ArmContact(
+                link=self._link_name.get(c.link_a, "base"),
+                other=self.world.body_name(c.body_b),
+                object_key=self.world.object_key(c.body_b),
+                point_m=c.position_on_b_m,
+                normal=c.normal_on_b,
+                normal_force_n=c.normal_force_n,
+            ))
+        return contacts
+
+    def pad_state(self) -> PadState:
+        """True state of the sensor body and the pad's contact, as of the last physics step."""
+        body = self.link_state(self.spec.sensor_body_link)
+        contacts = [c for c in self.pad_contacts() if c.normal_force_n > 0.0]
+        force = float(sum(c.normal_force_n for c in contacts))
+        point = normal = None
+        if force > 0.0:
+            weights = np.array([c.normal_force_n for c in contacts]) / force
+            point = weights @ np.array([c.position_on_b_m for c in contacts])
+            normal = weights @ np.array([c.normal_on_b for c in contacts])
+            normal = normal / np.linalg.norm(normal)
+        return PadState(
+            t_s=self.world.time_s,
+            position_m=body.position_m,
+            quat_wxyz=body.quat_wxyz,
+            lin_vel_mps=body.lin_vel_mps,
+            ang_vel_radps=body.ang_vel_radps,
+            normal_force_n=force,
+            contact_point_m=point,
+            contact_normal=normal,
+        )
+
+    # ---- internals ---------------------------------------------------------------------------
+
+    def _joint_states(self, indices: list[int]) -> list[JointState]:
+        raw = self._pb.getJointStates(self.body, indices, physicsClientId=self._client)
+        return [JointState.from_pybullet(s) for s in raw]
+
+    def _checked_q(self, q, name: str) -> np.ndarray:
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self.dof,) or not np.all(np.isfinite(q)):
+            raise ValueError(f"{name} must be {self.dof} finite joint angles (rad), got shape {q.shape}")
+        outside = [
+            f"{joint} = {np.degrees(v):.2f} deg not in [{np.degrees(lo):.2f}, {np.degrees(hi):.2f}]"
+            for joint, v, lo, hi in zip(self.joint_names, q, self.lower_rad, self.upper_rad)
+            if not lo - 1e-9 <= v <= hi + 1e-9
+        ]
+        if outside:
+            raise ValueError(f"{name} is outside the joint limits: " + "; ".join(outside))
+        return q
+
+    def _command(self, q: np.ndarray, qdot: np.ndarray) -> None:
+        kp, kd = self._gains
+        self._pb.setJointMotorControlArray(
+            self.body, self._arm_joints, self._pb.POSITION_CONTROL,
+            targetPositions=q.tolist(), targetVelocities=qdot.tolist(), forces=self.effort_nm.tolist(),
+            positionGains=[kp] * self.dof, velocityGains=[kd] * self.dof, physicsClientId=self._client,
+        )
+
+    def _follow(self, path: np.ndarray, stop: Callable[[], bool] | None, speed_rad_s: float) -> GuardedMoveResult:
+        if not speed_rad_s > 0.0:
+            raise ValueError(f"speed_rad_s must be positive, got {speed_rad_s}")
+        tick_s = self.control_steps * self.world.time_step_s
+        start = self.true_joint_positions()
+        points = np.vstack([start[None], path])
+        durations = np.max(np.abs(np.diff(points, axis=0)), axis=1) / speed_rad_s
+        ends = np.cumsum(durations)
+        total = float(ends[-1]) if len(ends) else 0.0
+        t = 0.0
+        settle_ticks = int(np.ceil(SETTLE_TIMEOUT_S / tick_s))
+        ticks_after_end = 0
+        while True:
+            segment = min(int(np.searchsorted(ends, t, side="right")), len(path) - 1)
+            if stop is not None and stop():
+                self._command(self.true_joint_positions(), np.zeros(self.dof))
+                return GuardedMoveResult(stopped=True, q=self.joint_positions(), waypoint_index=segment)
+            if t >= total:
+                target, velocity = path[-1], np.zeros(self.dof)
+                reached = np.max(np.abs(self.true_joint_positions() - target)) <= REACHED_TOLERANCE_RAD
+                if reached or ticks_after_end >= settle_ticks:
+                    return GuardedMoveResult(stopped=False, q=self.joint_positions(), waypoint_index=len(path) - 1)
+                ticks_after_end += 1
+            else:
+                seg_start = ends[segment] - durations[segment]
+                fraction = (t - seg_start) / durations[segment] if durations[segment] > 0 else 1.0
+                target = points[segment] + fraction * (points[segment + 1] - points[segment])
+                velocity = (points[segment + 1] - points[segment]) / max(durations[segment], 1e-12)
+            self._command(target, velocity)
+            self.world.step(self.control_steps)
+            t += tick_s
