@@ -2,10 +2,10 @@
 
 A loft is a sphere-like (genus 0) surface: a first pole, a list of circular rings, a last pole.
 Neighbouring rings may have different vertex counts; they are stitched by walking both rings in order
-of their angular parameter. Ring counts are multiples of six, so near a pole the rings hold 6, 12,
-18, ... vertices and form the near-equilateral hexagonal pattern; runs of rings with equal counts are
-staggered by half a step (isosceles rather than right triangles). Surfaces of revolution are the
-special case built by :func:`revolve`.
+of their angular parameter. :func:`ring_vertex_count` picks multiples of six, so near a pole the
+rings hold 6, 12, 18, ... vertices and form the near-equilateral hexagonal pattern; runs of rings
+with equal counts are staggered by half a step (isosceles rather than right triangles) unless
+``stagger`` is off. Surfaces of revolution are the special case built by :func:`revolve`.
 
 Winding convention: ring angles increase counter-clockwise about the travel direction (first pole to
 last pole); with the material on the left of a profile travelled pole to pole the face normals point
