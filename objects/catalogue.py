@@ -7,15 +7,18 @@ tests/test_objects.py); objects/README.md tabulates sizes, face counts and error
 """
 from __future__ import annotations
 
+import pathlib
 from dataclasses import dataclass
 from typing import Callable
 
-import numpy as np
 import trimesh
 
 from objects.banana import BananaShape, banana_mesh
 from objects.boxes import box_mesh
+from objects.files import urdf_text
 from objects.revolved import bowl_mesh, cylinder_mesh, sphere_mesh
+
+DATA_DIR = pathlib.Path(__file__).resolve().parent / "data"
 
 BOX_SIZE_M = (0.10, 0.07, 0.05)
 SPHERE_RADIUS_M = 0.05
@@ -101,3 +104,18 @@ def spec(name: str) -> ObjectSpec:
         raise ValueError(f"unknown object {name!r}; valid names: {', '.join(SPECS)} "
                          "(or give a path to an .obj, .stl or .ply mesh file)")
     return SPECS[name]
+
+
+def mesh_filename(name: str) -> str:
+    """File name of a registry object's committed mesh inside :data:`DATA_DIR`."""
+    return f"{name}.obj"
+
+
+def urdf_filename(name: str) -> str:
+    """File name of a registry object's committed URDF inside :data:`DATA_DIR`."""
+    return f"{name}.urdf"
+
+
+def registry_urdf_text(name: str) -> str:
+    """The URDF text committed for registry object ``name``."""
+    return urdf_text(name, mesh_filename(name), spec(name).rgba)

@@ -8,24 +8,8 @@ from __future__ import annotations
 import argparse
 import pathlib
 
-from objects.catalogue import SPECS, spec
-from objects.files import obj_text, urdf_text
-
-DATA_DIR = pathlib.Path(__file__).resolve().parent / "data"
-
-
-def mesh_filename(name: str) -> str:
-    return f"{name}.obj"
-
-
-def urdf_filename(name: str) -> str:
-    return f"{name}.urdf"
-
-
-def registry_urdf_text(name: str) -> str:
-    """The URDF text committed for registry object ``name``."""
-    entry = spec(name)
-    return urdf_text(name, mesh_filename(name), entry.rgba)
+from objects.catalogue import DATA_DIR, SPECS, mesh_filename, registry_urdf_text, spec, urdf_filename
+from objects.files import obj_text
 
 
 def write_data(directory: pathlib.Path = DATA_DIR, names: list[str] | None = None) -> list[pathlib.Path]:

@@ -14,10 +14,9 @@ import warnings
 import numpy as np
 import trimesh
 
-from objects.catalogue import SPECS, names, spec
+from objects.catalogue import DATA_DIR, SPECS, mesh_filename, names, spec, urdf_filename
 from objects.features import sharp_edges
 from objects.files import obj_text, urdf_text
-from objects.generate import DATA_DIR, mesh_filename, urdf_filename
 from objects.model import ObjectModel
 
 MESH_SUFFIXES = (".obj", ".stl", ".ply")

@@ -13,8 +13,8 @@ import trimesh
 
 import objects
 from objects.banana import BananaShape, banana_mesh
-from objects.catalogue import SPECS
-from objects.generate import DATA_DIR, registry_urdf_text, urdf_filename, write_data
+from objects.catalogue import DATA_DIR, SPECS, registry_urdf_text, urdf_filename
+from objects.generate import write_data
 from objects.lofting import loft, revolve
 from objects.proximity import MeshProximity, closest_on_triangles
 from objects.sampling import sample_surface
