@@ -226,3 +226,11 @@ def test_coverage_rejects_bad_input(sphere):
     with pytest.raises(ValueError, match="truth mesh is empty"):
         contact_coverage(np.zeros((1, 3)), trimesh.Trimesh(), 0.01)
 
+
+
+def test_zero_area_faces_change_nothing():
+    truth = trimesh.creation.icosphere(subdivisions=3, radius=RADIUS_M)
+    moved = truth.copy()
+    moved.apply_translation([0.002, 0.0, 0.0])
+    padded = trimesh.Trimesh(moved.vertices, np.vstack([moved.faces, [[0, 1, 1], [2, 2, 2]]]), process=False)
+    assert surface_error(padded, truth, n_samples=3000) == surface_error(moved, truth, n_samples=3000)
