@@ -267,13 +267,19 @@ class PadIK:
         """
         opts = self.options
         k, c, dof = starts.shape
-        rolls = torch.arange(c, dtype=DTYPE) * (2.0 * math.pi / max(n_guided, 1))
+        offsets = torch.arange(c, dtype=DTYPE) * (2.0 * math.pi / max(n_guided, 1))
         guided = (torch.arange(c) < n_guided).to(DTYPE)
         # flat working tensors over (target, candidate); ``live`` lists the targets still iterating
         q = starts.reshape(-1, dof).clone()
         t_p = target_p.repeat_interleave(c, 0)
         t_a = target_a.repeat_interleave(c, 0)
-        t_r = approach_frames(t_a, rolls.repeat(k))
+        # roll candidates are spread around the start's own roll, so a start that already solves
+        # the task stays where it is
+        with torch.no_grad():
+            start_x = self.kin.link_transforms(q)[self._pad][:, :3, 0]
+        reference = approach_frames(t_a, torch.zeros(k * c, dtype=DTYPE))
+        start_roll = torch.atan2((start_x * reference[:, :, 1]).sum(-1), (start_x * reference[:, :, 0]).sum(-1))
+        t_r = approach_frames(t_a, start_roll + offsets.repeat(k))
         weight = guided.repeat(k)
         out_q = q.clone().reshape(k, c, dof)
         out_p_err = torch.full((k, c), math.inf, dtype=DTYPE)

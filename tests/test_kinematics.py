@@ -1,0 +1,129 @@
+"""FK and Jacobians built from the URDF agree with PyBullet and with finite differences."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pybullet
+import pytest
+
+import robots
+from robots.kinematics import ArmKinematics
+from robots.pybullet_types import JointInfo, LinkState
+from robots.rotations import matrix_to_quat, quat_to_matrix, rotation_angle_between
+
+# an arbitrary base pose, so that the base transform is exercised too
+BASE_POSITION = (0.3, -0.1, 0.05)
+BASE_QUAT_WXYZ = tuple(np.array([np.cos(0.35), 0.0, 0.0, np.sin(0.35)]))
+
+
+@pytest.fixture(scope="module", params=["armar3", "armar6"])
+def moved_spec(request):
+    return dataclasses.replace(robots.load(request.param), base_position_m=BASE_POSITION, base_quat_wxyz=BASE_QUAT_WXYZ)
+
+
+@pytest.fixture(scope="module")
+def kinematics(moved_spec):
+    return ArmKinematics(moved_spec)
+
+
+@pytest.fixture(scope="module")
+def bullet_arm(moved_spec):
+    client = pybullet.connect(pybullet.DIRECT)
+    xyzw = np.roll(moved_spec.base_quat_wxyz, -1).tolist()
+    body = pybullet.loadURDF(str(moved_spec.urdf_path), BASE_POSITION, xyzw, useFixedBase=True,
+                             physicsClientId=client)
+    infos = [JointInfo.from_pybullet(pybullet.getJointInfo(body, i, physicsClientId=client))
+             for i in range(pybullet.getNumJoints(body, physicsClientId=client))]
+    yield client, body, {i.name: i.index for i in infos}, {i.child_link_name: i.index for i in infos}
+    pybullet.disconnect(client)
+
+
+def _random_configs(kin, n, seed):
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(kin.lower_rad, kin.upper_rad, (n, kin.dof))
+    springs = rng.uniform(-0.9, 0.9, (n, 2))
+    return q, springs
+
+
+def test_fk_matches_pybullet_link_poses(kinematics, bullet_arm):
+    client, body, joint_index, link_index = bullet_arm
+    spec = kinematics.spec
+    q, springs = _random_configs(kinematics, 12, seed=1)
+    for qi, si in zip(q, springs):
+        for name, value in zip(spec.joint_names + spec.spring_joint_names, np.concatenate([qi, si])):
+            pybullet.resetJointState(body, joint_index[name], value, physicsClientId=client)
+        for link in kinematics.link_names[1:]:
+            raw = pybullet.getLinkState(body, link_index[link], computeLinkVelocity=1, computeForwardKinematics=1,
+                                        physicsClientId=client)
+            truth = LinkState.from_pybullet(raw)
+            fk = kinematics.forward_kinematics(qi, link, spring_rad=si)
+            assert np.abs(fk.position_m - truth.position_m).max() < 1e-6, link
+            assert rotation_angle_between(fk.rotation, truth.rotation) < 1e-6, link
+
+
+def test_fk_is_batched_and_shapes_follow_the_input(kinematics):
+    q, springs = _random_configs(kinematics, 6, seed=2)
+    batch = kinematics.forward_kinematics(q.reshape(2, 3, -1), spring_rad=springs.reshape(2, 3, 2))
+    assert batch.position_m.shape == (2, 3, 3) and batch.rotation.shape == (2, 3, 3, 3)
+    for i in range(6):
+        single = kinematics.forward_kinematics(q[i], spring_rad=springs[i])
+        assert np.allclose(single.position_m, batch.position_m.reshape(6, 3)[i], atol=1e-12)
+    assert batch.position_m.dtype == np.float64
+
+
+def test_pad_frame_sits_on_the_sensor_body_axis(kinematics):
+    q, springs = _random_configs(kinematics, 5, seed=3)
+    body = kinematics.forward_kinematics(q, kinematics.spec.sensor_body_link, springs)
+    pad = kinematics.forward_kinematics(q, kinematics.spec.pad_link, springs)
+    offset = np.einsum("nji,nj->ni", body.rotation, pad.position_m - body.position_m)
+    assert np.allclose(offset[:, :2], 0.0, atol=1e-9) and np.all(offset[:, 2] > 0.004)  # pad face along +z
+    assert np.allclose(body.rotation, pad.rotation, atol=1e-9)
+
+
+def test_jacobian_matches_finite_differences(kinematics):
+    q, springs = _random_configs(kinematics, 4, seed=4)
+    step = 1e-6
+    for link in (kinematics.spec.pad_link, kinematics.spec.pivot_link, "elbow_link"):
+        jac = kinematics.jacobian(q, link, spring_rad=springs)
+        assert jac.shape == (4, 6, kinematics.dof)
+        for j in range(kinematics.dof):
+            dq = np.zeros(kinematics.dof)
+            dq[j] = step
+            plus = kinematics.forward_kinematics(q + dq, link, springs)
+            minus = kinematics.forward_kinematics(q - dq, link, springs)
+            linear = (plus.position_m - minus.position_m) / (2 * step)
+            # angular velocity from dR R^T (skew part)
+            d_rot = (plus.rotation - minus.rotation) / (2 * step)
+            omega_hat = d_rot @ np.swapaxes(plus.rotation + minus.rotation, 1, 2) / 2
+            angular = np.stack([omega_hat[:, 2, 1], omega_hat[:, 0, 2], omega_hat[:, 1, 0]], axis=1)
+            assert np.allclose(jac[:, :3, j], linear, atol=1e-7), (link, j)
+            assert np.allclose(jac[:, 3:, j], angular, atol=1e-7), (link, j)
+
+
+def test_pad_position_from_measured_orientation(kinematics):
+    """Pivot from the encoders + IMU orientation reproduces the true pad with deflected springs."""
+    spec = kinematics.spec
+    q, springs = _random_configs(kinematics, 8, seed=5)
+    body = kinematics.forward_kinematics(q, spec.sensor_body_link, springs)
+    truth = kinematics.forward_kinematics(q, spec.pad_link, springs).position_m
+    estimate = kinematics.pad_position_from_orientation(q, matrix_to_quat(body.rotation))
+    assert np.abs(estimate - truth).max() < 1e-9
+    # ignoring the spring (orientation of the undeflected pad) is off by millimetres
+    undeflected = kinematics.forward_kinematics(q, spec.sensor_body_link)
+    naive = kinematics.pad_position_from_orientation(q, matrix_to_quat(undeflected.rotation))
+    assert np.linalg.norm(naive - truth, axis=1).min() > 1e-3
+    offset = kinematics.pivot_to_pad_in_body
+    assert offset[:2] == pytest.approx([0.0, 0.0], abs=1e-12) and offset[2] == pytest.approx(0.0087, abs=1e-9)
+    assert np.allclose(quat_to_matrix(matrix_to_quat(body.rotation)), body.rotation)
+
+
+def test_bad_inputs_are_rejected(kinematics):
+    with pytest.raises(ValueError, match=r"q must have shape \(\.\.\., \d\)"):
+        kinematics.forward_kinematics(np.zeros(3))
+    with pytest.raises(ValueError, match="non-finite"):
+        kinematics.forward_kinematics(np.full(kinematics.dof, np.nan))
+    with pytest.raises(ValueError, match="link 'hand' is not on the chain"):
+        kinematics.forward_kinematics(kinematics.spec.home_q, "hand")
+    with pytest.raises(ValueError, match="unit quaternions"):
+        kinematics.pad_position_from_orientation(kinematics.spec.home_q, [2.0, 0, 0, 0])
