@@ -80,13 +80,16 @@ class LinkState:
     def from_pybullet(cls, raw: tuple) -> "LinkState":
         """From ``getLinkState(..., computeLinkVelocity=1, computeForwardKinematics=1)``."""
         com_position = np.asarray(raw[0], dtype=float)
+        com_vel = np.asarray(raw[6], dtype=float) if len(raw) > 6 else np.zeros(3)
+        ang_vel = np.asarray(raw[7], dtype=float) if len(raw) > 7 else np.zeros(3)
+        if raw[2] == (0.0, 0.0, 0.0) and raw[3] == (0.0, 0.0, 0.0, 1.0):  # frame = centre of mass
+            quat = xyzw_to_wxyz(raw[1])
+            return cls(com_position, quat / np.linalg.norm(quat), com_vel, ang_vel)
         com_rotation = quat_to_matrix(xyzw_to_wxyz(raw[1]))
         inertial_offset = np.asarray(raw[2], dtype=float)
         inertial_rotation = quat_to_matrix(xyzw_to_wxyz(raw[3]))
         frame_rotation = com_rotation @ inertial_rotation.T
         frame_position = com_position - frame_rotation @ inertial_offset
-        ang_vel = np.asarray(raw[7], dtype=float) if len(raw) > 7 else np.zeros(3)
-        com_vel = np.asarray(raw[6], dtype=float) if len(raw) > 6 else np.zeros(3)
         frame_vel = com_vel + np.cross(ang_vel, frame_position - com_position)
         if np.array_equal(inertial_rotation, np.eye(3)):
             quat = xyzw_to_wxyz(raw[1])

@@ -34,6 +34,13 @@ def quat_to_matrix(quat_wxyz) -> np.ndarray:
     """(…, 4) unit quaternions (w, x, y, z) -> (…, 3, 3) rotation matrices."""
     q = np.asarray(quat_wxyz, dtype=float)
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    if q.ndim == 1:  # fast path for one quaternion (called every simulation step)
+        w, x, y, z = (float(v) for v in q)
+        return np.array([
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ])
     w, x, y, z = np.moveaxis(q, -1, 0)
     rows = [
         [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
