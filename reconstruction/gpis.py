@@ -22,8 +22,8 @@ import scipy.linalg
 import torch
 
 from reconstruction.cholesky import GrowingCholesky
-from reconstruction.kernels import (Kernel, ReferenceThinPlateKernel, SquaredExponentialKernel,
-                                    ThinPlateKernel, thin_plate_radius)
+from reconstruction.kernels import (Kernel, QuadraticTrend, ReferenceThinPlateKernel,
+                                    SquaredExponentialKernel, ThinPlateKernel, thin_plate_radius)
 
 KERNEL_NAMES = ("thin_plate", "thin_plate_reference", "squared_exponential")
 
@@ -62,7 +62,7 @@ class GPIS:
 
     def __init__(self, kernel: str | Kernel = "thin_plate", noise: float = 5e-4,
                  normal_noise: float = 0.2, use_normals: bool = True,
-                 bounds: Sequence[Sequence[float]] | None = None):
+                 bounds: Sequence[Sequence[float]] | None = None, trend: float | None = 3.0):
         if isinstance(kernel, str) and kernel not in KERNEL_NAMES:
             raise ValueError(f"unknown kernel {kernel!r}; choose one of {', '.join(KERNEL_NAMES)} "
                              "or pass a Kernel instance")
@@ -71,6 +71,10 @@ class GPIS:
         for name, value in (("noise", noise), ("normal_noise", normal_noise)):
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive finite standard deviation, got {value!r}")
+        if trend is not None and not (np.isfinite(trend) and trend > 0):
+            raise ValueError(f"trend must be None or a positive scale, got {trend!r}")
+        self.trend_spec = None if trend is None else float(trend)
+        self.trend: QuadraticTrend | None = None
         self.kernel_spec = kernel
         self.noise = float(noise)
         self.normal_noise = float(normal_noise)
@@ -175,12 +179,18 @@ class GPIS:
     def mean(self, x: np.ndarray) -> np.ndarray:
         """Posterior mean of ``f`` at (m, 3) points; (m,) float32."""
         x = self._check_query(x)
-        return _field(self._weights_table(), self._obs_points, self.kernel, x, gradient=False)
+        out = _field(self._weights_table(), self._obs_points, self.kernel, x, gradient=False)
+        if self.trend is not None:
+            out += (self.trend.features(x)[:, 0] * self._trend_coefficient()).astype(np.float32)
+        return out
 
     def gradient(self, x: np.ndarray) -> np.ndarray:
         """Gradient of the posterior mean at (m, 3) points; (m, 3) float32 (points inward)."""
         x = self._check_query(x)
-        return _field(self._weights_table(), self._obs_points, self.kernel, x, gradient=True)
+        out = _field(self._weights_table(), self._obs_points, self.kernel, x, gradient=True)
+        if self.trend is not None:
+            out += (self.trend.features(x)[:, 1:] * self._trend_coefficient()).astype(np.float32)
+        return out
 
     def variance(self, x: np.ndarray, chunk: int = 2048) -> np.ndarray:
         """Posterior variance of ``f`` (noise-free) at (m, 3) points; (m,) float64.
@@ -194,16 +204,21 @@ class GPIS:
             kx = self.cross_covariance(x[s:s + chunk])
             if self._factor is not None:
                 w = self._factor.solve_lower(kx)
-                out[s:s + chunk] = self.kernel.prior_variance - np.einsum("ij,ij->j", w, w)
+                out[s:s + chunk] = self.prior_variance(x[s:s + chunk]) - np.einsum("ij,ij->j", w, w)
             else:
-                out[s:s + chunk] = self.kernel.prior_variance - np.einsum(
+                out[s:s + chunk] = self.prior_variance(x[s:s + chunk]) - np.einsum(
                     "ij,ij->j", kx, scipy.linalg.lu_solve(self._lu, kx, check_finite=False))
         return out
 
     def cross_covariance(self, x: np.ndarray) -> np.ndarray:
         """Covariance between every observation row and ``f`` at (m, 3) points; (rows, m)."""
-        full = self.kernel.joint_covariance(self._obs_points, np.asarray(x, float))[:, :, :, 0]
+        full = self._joint(self._obs_points, np.asarray(x, float))[:, :, :, 0]
         return full[self._row_point, self._row_comp]
+
+    def prior_variance(self, x: np.ndarray) -> np.ndarray:
+        """(m,) prior variance of ``f`` at (m, 3) points."""
+        base = np.full(len(x), self.kernel.prior_variance)
+        return base if self.trend is None else base + self.trend.variance(x)
 
     def variance_tracker(self, candidates: np.ndarray) -> "VarianceTracker":
         """A tracker of the variance at a fixed (m, 3) candidate set, updated per contact."""
@@ -226,6 +241,17 @@ class GPIS:
         return mesh_zero_level(self.mean, box, resolution)
 
     # ------------------------------------------------------------------ internals
+    def _joint(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """(m, 4, n, 4) prior covariance of ``[f, grad f]``: kernel plus trend."""
+        cov = self.kernel.joint_covariance(x, y)
+        return cov if self.trend is None else cov + self.trend.joint_covariance(x, y)
+
+    def _trend_coefficient(self) -> float:
+        """Posterior mean of the trend's ``gamma``: ``s^2 sum_rows alpha_row feature_row``."""
+        table = self._weights_table()
+        feats = self.trend.features(self._obs_points)
+        return float(self.trend.scale_per_m**2 * np.sum(table * feats))
+
     def _clear(self) -> None:
         if not isinstance(self.kernel_spec, Kernel):
             self.kernel = None
@@ -251,6 +277,9 @@ class GPIS:
             region = (lo - pad, hi + pad)
         self._region = (np.asarray(region[0], float), np.asarray(region[1], float))
         diagonal = float(np.linalg.norm(self._region[1] - self._region[0]))
+        if self.trend_spec is not None and self.use_normals:
+            centre = 0.5 * (self._region[0] + self._region[1])
+            self.trend = QuadraticTrend(centre, self.trend_spec / (0.5 * diagonal))
         spread = float(np.linalg.norm(hi - lo))
         if self.kernel_spec == "thin_plate":
             self.kernel = ThinPlateKernel(thin_plate_radius(diagonal, spread))
@@ -302,7 +331,7 @@ class GPIS:
         self._obs_points = np.vstack([self._obs_points, points])
 
     def _factor_all(self) -> None:
-        full = self.kernel.joint_covariance(self._obs_points, self._obs_points)
+        full = self._joint(self._obs_points, self._obs_points)
         K = full[self._row_point, self._row_comp][:, self._row_point, self._row_comp]
         K[np.diag_indices_from(K)] += self._noise_var
         self._generation += 1
@@ -326,9 +355,9 @@ class GPIS:
             return
         n_rows_old = self.n_rows
         offsets, comps, y, var = self._observation_rows(points, values, normals, noise)
-        full_old = self.kernel.joint_covariance(self._obs_points, points)
+        full_old = self._joint(self._obs_points, points)
         cross = full_old[self._row_point, self._row_comp][:, offsets, comps]
-        full_new = self.kernel.joint_covariance(points, points)
+        full_new = self._joint(points, points)
         block = full_new[offsets, comps][:, offsets, comps]
         block[np.diag_indices_from(block)] += var
         new_rows = self._factor.append(cross, block)
@@ -418,7 +447,7 @@ class VarianceTracker:
     def _recompute(self) -> None:
         gp = self.gpis
         W = gp._factor.solve_lower(gp.cross_covariance(self.candidates))
-        self._variance = gp.kernel.prior_variance - np.einsum("ij,ij->j", W, W)
+        self._variance = gp.prior_variance(self.candidates) - np.einsum("ij,ij->j", W, W)
         self._Wt = np.zeros((len(self.candidates), 0))
         self._store(W, used=0)
         self._rows = gp.n_rows
@@ -428,8 +457,7 @@ class VarianceTracker:
         gp = self.gpis
         start, stop = self._rows, gp.n_rows
         rows = gp._factor.rows(start, stop)
-        full = gp.kernel.joint_covariance(gp._obs_points[gp._row_point[start:stop]],
-                                          self.candidates)[:, :, :, 0]
+        full = gp._joint(gp._obs_points[gp._row_point[start:stop]], self.candidates)[:, :, :, 0]
         k_new = full[np.arange(stop - start), gp._row_comp[start:stop]]
         rhs = k_new - (self._Wt[:, :start] @ rows[:, :start].T).T
         W_new = scipy.linalg.solve_triangular(rows[:, start:], rhs, lower=True)

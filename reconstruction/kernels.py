@@ -197,3 +197,42 @@ def _unit(d: np.ndarray, r: np.ndarray) -> np.ndarray:
     """``d / r`` with 0 where r == 0."""
     safe = np.where(r > 0, r, 1.0)
     return np.where((r > 0)[..., None], d / safe[..., None], 0.0)
+
+
+class QuadraticTrend:
+    """A random quadratic bowl added to the GP: ``f(x) += gamma |x - c|^2``, ``gamma ~ N(0, s^2)``.
+
+    Its covariance ``s^2 |x - c|^2 |y - c|^2`` is positive semi-definite, so the sum with a positive
+    definite kernel stays positive definite. It gives the posterior a closed-surface shape to fall
+    back on far from contacts (``gamma < 0``: positive inside, negative outside); without it the
+    thin-plate mean fades towards 0 between sparse contacts and grows spurious 0-level sheets.
+    (The reference ``+3Rr^2`` form contains such a quadratic term too, but with an indefinite
+    cross-covariance.)
+
+    Parameters
+    ----------
+    centre_m : (3,) float
+        ``c``, metres (the prior object centre).
+    scale_per_m : float
+        ``s``, prior standard deviation of ``gamma`` (1/m). A sphere of radius ``rho`` written as
+        signed distance has ``gamma = -1 / (2 rho)``.
+    """
+
+    def __init__(self, centre_m, scale_per_m: float):
+        self.centre_m = np.asarray(centre_m, float).reshape(3)
+        if not (np.isfinite(scale_per_m) and scale_per_m > 0):
+            raise ValueError(f"scale_per_m must be positive, got {scale_per_m!r}")
+        self.scale_per_m = float(scale_per_m)
+
+    def features(self, x: np.ndarray) -> np.ndarray:
+        """``[q(x), dq/dx, dq/dy, dq/dz]`` with ``q = |x - c|^2``; (m, 4)."""
+        d = np.asarray(x, float) - self.centre_m
+        return np.column_stack([np.sum(d * d, axis=1), 2.0 * d])
+
+    def joint_covariance(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """(m, 4, n, 4) covariance of ``[f, grad f]`` contributed by the trend."""
+        return self.scale_per_m**2 * np.einsum("ia,jb->iajb", self.features(x), self.features(y))
+
+    def variance(self, x: np.ndarray) -> np.ndarray:
+        """(m,) prior variance of ``f`` contributed by the trend."""
+        return self.scale_per_m**2 * self.features(x)[:, 0] ** 2

@@ -79,7 +79,7 @@ def evaluate(name: str, n_contacts: int, seeds: int, noise: ContactNoise, resolu
             if out is not None and seed == 0:
                 mesh.export(out / "meshes" / f"{name}_{method.replace(', ', '_').replace(' ', '_')}.ply")
         position = np.array([e.position_rmse_mm for e in errors])
-        edge = [e.edge_error_mm for e in errors if e.edge_error_mm is not None]
+        edge = [e.edge_rmse_mm for e in errors if e.edge_rmse_mm is not None]
         rows.append(Row(name, method, seeds, float(position.mean()), float(position.std()),
                         float(np.mean([e.normal_rmse_deg for e in errors])),
                         float(np.mean(edge)) if edge else None,

@@ -234,3 +234,32 @@ def test_mesh_without_a_surface_in_the_bounds_is_an_error():
     gp = GPIS(bounds=BOUNDS).fit(np.array([[0.0, 0.0, 0.02]]), np.array([[0.0, 0.0, 1.0]]))
     with pytest.raises(ValueError, match="no 0-level set"):
         gp.mesh(bounds=((-0.01, -0.01, -0.01), (0.01, 0.01, 0.01)), resolution=16)
+
+
+def test_quadratic_trend_keeps_sparse_reconstructions_closed():
+    """With 12 contacts the plain thin-plate mean fades towards 0 between contacts; the trend gives
+    the posterior a closed shape to fall back on, so the mesh is one sphere-like surface."""
+    points, normals = sphere_contacts(12, seed=4)
+    with_trend = GPIS(bounds=BOUNDS).fit(points, normals).mesh(resolution=48)
+    without = GPIS(bounds=BOUNDS, trend=None).fit(points, normals).mesh(resolution=48)
+
+    def rmse(mesh):
+        return np.sqrt(np.mean((np.linalg.norm(mesh.vertices, axis=1) - RADIUS) ** 2))
+
+    assert rmse(with_trend) < 0.5 * rmse(without)
+    assert len(with_trend.split(only_watertight=False)) == 1
+
+
+def test_quadratic_trend_covariance_is_consistent_with_its_features():
+    from reconstruction.kernels import QuadraticTrend
+
+    trend = QuadraticTrend(np.array([0.01, 0.0, -0.02]), 2.0)
+    x = np.random.default_rng(0).uniform(-0.05, 0.05, (5, 3))
+    h = 1e-6
+    feats = trend.features(x)
+    fd = np.stack([(trend.features(x + e)[:, 0] - trend.features(x - e)[:, 0]) / (2 * h)
+                   for e in np.eye(3) * h], axis=1)
+    np.testing.assert_allclose(feats[:, 1:], fd, atol=1e-8)
+    cov = trend.joint_covariance(x, x)
+    np.testing.assert_allclose(cov[:, 0, :, 0], 4.0 * np.outer(feats[:, 0], feats[:, 0]))
+    np.testing.assert_allclose(np.diagonal(cov[:, 0, :, 0]), trend.variance(x))
