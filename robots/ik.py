@@ -42,6 +42,9 @@ class IKOptions:
         Iteration budget per round.
     max_rounds : int
         Rounds; targets still unsolved after a round restart from fresh random configurations.
+    patience_iterations : int
+        After the roll-guided phase, how long a target keeps iterating for its seed-roll start
+        (the preferred, nearest answer) once another candidate has converged.
     position_tolerance_m, angle_tolerance_rad : float
         Success thresholds on the pad position and approach-axis errors.
     orientation_scale_m : float
@@ -57,6 +60,7 @@ class IKOptions:
     roll_guided_iterations: int = 10
     max_iterations: int = 60
     max_rounds: int = 3
+    patience_iterations: int = 15
     position_tolerance_m: float = 1e-3
     angle_tolerance_rad: float = math.radians(1.0)
     orientation_scale_m: float = 0.1
@@ -66,8 +70,8 @@ class IKOptions:
     def __post_init__(self) -> None:
         if self.n_roll_candidates < 0 or self.n_random_seeds < 0 or self.n_roll_candidates + self.n_random_seeds < 1:
             raise ValueError("IKOptions needs at least one candidate (roll candidates + random seeds)")
-        if self.max_iterations < 1 or self.max_rounds < 1 or self.roll_guided_iterations < 0:
-            raise ValueError("max_iterations and max_rounds must be >= 1, roll_guided_iterations >= 0")
+        if self.max_iterations < 1 or self.max_rounds < 1 or self.roll_guided_iterations < 0 or self.patience_iterations < 0:
+            raise ValueError("max_iterations and max_rounds must be >= 1, roll_guided and patience iterations >= 0")
         if self.roll_guided_iterations >= self.max_iterations:
             raise ValueError("roll_guided_iterations must be below max_iterations")
         if not (self.position_tolerance_m > 0 and self.angle_tolerance_rad > 0 and self.orientation_scale_m > 0
@@ -262,29 +266,31 @@ class PadIK:
     def _run(self, starts, target_p, target_a, n_guided):
         """Levenberg-Marquardt from ``starts`` (k, c, dof) towards k targets.
 
-        Returns final q (k, c, dof), success (k, c), position and angle errors (k, c). A target
-        stops iterating as soon as one of its candidates succeeds.
+        Returns final q (k, c, dof), success (k, c), position and angle errors (k, c). A candidate
+        stops when it has converged; once one of a target's candidates has, only the target's
+        first candidate (started at the seed with the seed's roll, the preferred answer) goes on,
+        for at most ``patience_iterations``.
         """
         opts = self.options
         k, c, dof = starts.shape
         offsets = torch.arange(c, dtype=DTYPE) * (2.0 * math.pi / max(n_guided, 1))
-        guided = (torch.arange(c) < n_guided).to(DTYPE)
-        # flat working tensors over (target, candidate); ``live`` lists the targets still iterating
+        # flat working tensors over the live candidates; ``target``/``slot`` say whose they are
         q = starts.reshape(-1, dof).clone()
-        t_p = target_p.repeat_interleave(c, 0)
-        t_a = target_a.repeat_interleave(c, 0)
+        target = torch.arange(k).repeat_interleave(c)
+        slot = torch.arange(c).repeat(k)
+        t_p, t_a = target_p[target], target_a[target]
         # roll candidates are spread around the start's own roll, so a start that already solves
         # the task stays where it is
         with torch.no_grad():
             start_x = self.kin.link_transforms(q)[self._pad][:, :3, 0]
         reference = approach_frames(t_a, torch.zeros(k * c, dtype=DTYPE))
         start_roll = torch.atan2((start_x * reference[:, :, 1]).sum(-1), (start_x * reference[:, :, 0]).sum(-1))
-        t_r = approach_frames(t_a, start_roll + offsets.repeat(k))
-        weight = guided.repeat(k)
-        out_q = q.clone().reshape(k, c, dof)
+        t_r = approach_frames(t_a, start_roll + offsets[slot])
+        weight = (slot < n_guided).to(DTYPE)
+        out_q = starts.clone()
         out_p_err = torch.full((k, c), math.inf, dtype=DTYPE)
         out_a_err = torch.full((k, c), math.inf, dtype=DTYPE)
-        live = torch.arange(k)
+        first_converged = torch.full((k,), -1, dtype=torch.long)
         damping = torch.full((k * c,), opts.initial_damping, dtype=DTYPE)
         best_cost = torch.full((k * c,), math.inf, dtype=DTYPE)
         best_q, best_res, best_jac = q.clone(), None, None
@@ -307,24 +313,27 @@ class PadIK:
                 best_res = residual if best_res is None else torch.where(better.unsqueeze(-1), residual, best_res)
                 best_jac = jac if best_jac is None else torch.where(better.reshape(-1, 1, 1), jac, best_jac)
                 damping = torch.where(better, damping / 3.0, damping * 4.0).clamp(1e-9, 1e6)
-                if guided_phase:
-                    trial = self._step(best_q, best_res, best_jac, damping)
-                    continue
-                p_err, a_err = self._errors(best_p, best_z, t_p, t_a)
-                polished = ((p_err <= POLISH_FRACTION * opts.position_tolerance_m)
-                            & (a_err <= POLISH_FRACTION * opts.angle_tolerance_rad)).reshape(-1, c)
-                done = polished.any(dim=1) if iteration < opts.max_iterations else torch.ones(len(live), dtype=torch.bool)
-                if done.any():
-                    out_q[live[done]] = best_q.reshape(-1, c, dof)[done]
-                    out_p_err[live[done]] = p_err.reshape(-1, c)[done]
-                    out_a_err[live[done]] = a_err.reshape(-1, c)[done]
-                    keep = (~done).repeat_interleave(c)
-                    live = live[~done]
-                    if len(live) == 0:
+                if not guided_phase:
+                    p_err, a_err = self._errors(best_p, best_z, t_p, t_a)
+                    out_q[target, slot] = best_q
+                    out_p_err[target, slot] = p_err
+                    out_a_err[target, slot] = a_err
+                    converged = ((p_err <= POLISH_FRACTION * opts.position_tolerance_m)
+                                 & (a_err <= POLISH_FRACTION * opts.angle_tolerance_rad))
+                    newly = target[converged][first_converged[target[converged]] < 0]
+                    first_converged[newly] = iteration
+                    waited = first_converged[target]
+                    patience_over = iteration - waited >= opts.patience_iterations
+                    finished = converged | ((waited >= 0) & ((slot != 0) | patience_over | (n_guided == 0)))
+                    if iteration >= opts.max_iterations:
                         break
-                    t_p, t_a, t_r, weight = t_p[keep], t_a[keep], t_r[keep], weight[keep]
-                    damping, best_cost, best_q = damping[keep], best_cost[keep], best_q[keep]
-                    best_p, best_z, best_res, best_jac = best_p[keep], best_z[keep], best_res[keep], best_jac[keep]
+                    if finished.any():
+                        keep = ~finished
+                        if not keep.any():
+                            break
+                        target, slot, t_p, t_a, t_r, weight = target[keep], slot[keep], t_p[keep], t_a[keep], t_r[keep], weight[keep]
+                        damping, best_cost, best_q = damping[keep], best_cost[keep], best_q[keep]
+                        best_p, best_z, best_res, best_jac = best_p[keep], best_z[keep], best_res[keep], best_jac[keep]
                 trial = self._step(best_q, best_res, best_jac, damping)
         ok = (out_p_err <= opts.position_tolerance_m) & (out_a_err <= opts.angle_tolerance_rad)
         return out_q, ok, out_p_err, out_a_err

@@ -142,11 +142,7 @@ class SimArm(Robot):
             spec.spring_stiffness_nm_per_rad if spring_stiffness_nm_per_rad is None else spring_stiffness_nm_per_rad,
             spec.spring_damping_nms_per_rad if spring_damping_nms_per_rad is None else spring_damping_nms_per_rad,
         )
-        q0 = spec.home_q if q_init_rad is None else self._checked_q(q_init_rad, "q_init_rad")
-        for index, value in zip(self._arm_joints, q0):
-            pb.resetJointState(self.body, index, float(value), 0.0, physicsClientId=client)
-        for index in self._spring_joints:
-            pb.resetJointState(self.body, index, 0.0, 0.0, physicsClientId=client)
+        self.reset_joint_positions(spec.home_q if q_init_rad is None else q_init_rad)
         pb.setJointMotorControlArray(self.body, self._spring_joints, pb.VELOCITY_CONTROL,
                                      targetVelocities=[0.0, 0.0], forces=[0.0, 0.0], physicsClientId=client)
         pb.changeDynamics(
@@ -156,8 +152,20 @@ class SimArm(Robot):
             contactDamping=spec.pad_contact_damping_ns_per_m,
             physicsClientId=client,
         )
-        self._command(q0, np.zeros(self.dof))
         self._remove_hook = world.add_pre_step_hook(self._apply_spring_torque)
+
+    def reset_joint_positions(self, q_rad) -> None:
+        """Teleport the arm to ``q_rad`` ((dof,) radians) at rest, springs at 0, and hold it there.
+
+        No dynamics run: use it to set up a scene, not as a motion.
+        """
+        q = self._checked_q(q_rad, "q_rad")
+        pb, client = self._pb, self._client
+        for index, value in zip(self._arm_joints, q):
+            pb.resetJointState(self.body, index, float(value), 0.0, physicsClientId=client)
+        for index in self._spring_joints:
+            pb.resetJointState(self.body, index, 0.0, 0.0, physicsClientId=client)
+        self._command(q, np.zeros(self.dof))
 
     # ---- spring ------------------------------------------------------------------------------
 
