@@ -212,6 +212,19 @@ class SimWorld:
         self._named_bodies[body] = handle.name
         return handle
 
+    def set_object_pose(self, handle: ObjectHandle, position_m, quat_wxyz) -> None:
+        """Re-pose a static object (a turntable or positioner between touches)."""
+        self._check_open()
+        if handle.key not in self._objects:
+            raise ValueError(f"object {handle.name!r} (key {handle.key}) is not in this world")
+        position = np.asarray(position_m, dtype=float)
+        if position.shape != (3,) or not np.all(np.isfinite(position)):
+            raise ValueError(f"position_m must be 3 finite numbers, got {position_m!r}")
+        _, body = self._objects[handle.key]
+        self._pb.resetBasePositionAndOrientation(
+            body, position.tolist(), wxyz_to_xyzw(as_unit_quat_wxyz(quat_wxyz)).tolist(),
+            physicsClientId=self.client)
+
     def remove_object(self, handle: ObjectHandle) -> None:
         """Take an object out of the world."""
         self._check_open()
