@@ -23,7 +23,11 @@ import torch
 from robots.kinematics import DTYPE, ArmKinematics
 
 POLISH_FRACTION = 0.01
-"""A target stops iterating once a candidate is within this fraction of both tolerances."""
+"""A candidate stops iterating once within this fraction of both tolerances."""
+
+STALL_ITERATIONS = 8
+STALL_RELATIVE_GAIN = 1e-6
+"""A candidate whose cost has not dropped by this fraction for STALL_ITERATIONS iterations stops."""
 
 
 @dataclass(frozen=True)
@@ -293,6 +297,7 @@ class PadIK:
         first_converged = torch.full((k,), -1, dtype=torch.long)
         damping = torch.full((k * c,), opts.initial_damping, dtype=DTYPE)
         best_cost = torch.full((k * c,), math.inf, dtype=DTYPE)
+        stalled = torch.zeros(k * c, dtype=torch.long)
         best_q, best_res, best_jac = q.clone(), None, None
         best_p, best_z = torch.zeros(k * c, 3, dtype=DTYPE), torch.zeros(k * c, 3, dtype=DTYPE)
         trial = q
@@ -306,6 +311,8 @@ class PadIK:
                 residual, jac, p, z = self._residual(self.kin.link_transforms(trial), t_p, t_a, t_r, weight)
                 cost = (residual**2).sum(-1)
                 better = cost < best_cost
+                progress = cost < best_cost * (1.0 - STALL_RELATIVE_GAIN)
+                stalled = torch.where(progress, torch.zeros_like(stalled), stalled + 1)
                 best_cost = torch.where(better, cost, best_cost)
                 best_q = torch.where(better.unsqueeze(-1), trial, best_q)
                 best_p = torch.where(better.unsqueeze(-1), p, best_p)
@@ -325,6 +332,7 @@ class PadIK:
                     waited = first_converged[target]
                     patience_over = iteration - waited >= opts.patience_iterations
                     finished = converged | ((waited >= 0) & ((slot != 0) | patience_over | (n_guided == 0)))
+                    finished |= stalled >= STALL_ITERATIONS
                     if iteration >= opts.max_iterations:
                         break
                     if finished.any():
@@ -332,7 +340,7 @@ class PadIK:
                         if not keep.any():
                             break
                         target, slot, t_p, t_a, t_r, weight = target[keep], slot[keep], t_p[keep], t_a[keep], t_r[keep], weight[keep]
-                        damping, best_cost, best_q = damping[keep], best_cost[keep], best_q[keep]
+                        damping, best_cost, best_q, stalled = damping[keep], best_cost[keep], best_q[keep], stalled[keep]
                         best_p, best_z, best_res, best_jac = best_p[keep], best_z[keep], best_res[keep], best_jac[keep]
                 trial = self._step(best_q, best_res, best_jac, damping)
         ok = (out_p_err <= opts.position_tolerance_m) & (out_a_err <= opts.angle_tolerance_rad)
