@@ -74,11 +74,11 @@ def farthest_point_order(directions: np.ndarray, first: int = 0) -> np.ndarray:
 
 
 def ray_touch(prior: ObjectPrior, outward: np.ndarray, score: float, strategy: str) -> Touch:
-    """A touch travelling towards the prior centre from the prior box surface along -outward."""
+    """A touch from the prior box surface along -outward, allowed to travel to the prior centre."""
     outward = outward / np.linalg.norm(outward)
     with np.errstate(divide="ignore"):
         scale = np.min(np.where(np.abs(outward) > 1e-12, prior.half_extent_m / np.abs(outward), np.inf))
-    return Touch(prior.centre_m + scale * outward, -outward, score, strategy)
+    return Touch(prior.centre_m + scale * outward, -outward, score, strategy, depth_m=float(scale))
 
 
 def _not_near(points: np.ndarray, avoid: list[np.ndarray], radius_m: float) -> np.ndarray:
@@ -103,14 +103,15 @@ class UniformStrategy(TouchStrategy):
     def __init__(self, directions: int = 100, avoid_radius_m: float = 0.01):
         dirs = fibonacci_directions(directions)
         self._directions = dirs[farthest_point_order(dirs, first=int(np.argmax(dirs[:, 2])))]
-        self._next = 0
+        self._used = np.zeros(len(dirs), bool)
         self.avoid_radius_m = avoid_radius_m
 
     def propose(self, state: ExplorationState, count: int) -> list[Touch]:
+        if self._used.all():  # every direction tried: go round again
+            self._used[:] = False
         touches = []
-        for k in range(len(self._directions)):
-            u = self._directions[(self._next + k) % len(self._directions)]
-            touch = ray_touch(state.prior, u, -float(k), self.name)
+        for k in np.flatnonzero(~self._used):
+            touch = ray_touch(state.prior, self._directions[k], -float(k), self.name)
             if _not_near(touch.target_m[None], state.unreachable_m, self.avoid_radius_m)[0]:
                 touches.append(touch)
             if len(touches) == count:
@@ -118,8 +119,9 @@ class UniformStrategy(TouchStrategy):
         return touches
 
     def accepted(self, touch: Touch) -> None:
-        """Advance past ``touch`` once the loop has tried it."""
-        self._next += 1
+        """Mark the direction of ``touch`` as tried."""
+        outward = -touch.approach_dir
+        self._used[int(np.argmax(self._directions @ outward))] = True
 
 
 class RandomStrategy(TouchStrategy):

@@ -64,12 +64,16 @@ class Touch:
         The strategy's preference (higher first); variance for ``variance``.
     strategy : str
         Name of the strategy that proposed it.
+    depth_m : float or None
+        How far beyond the target the pad may travel before the touch is a miss; None leaves it
+        to the planner's default.
     """
 
     target_m: np.ndarray
     approach_dir: np.ndarray
     score: float = 0.0
     strategy: str = ""
+    depth_m: float | None = None
 
     def __post_init__(self):
         target = np.asarray(self.target_m, float)

@@ -1,0 +1,361 @@
+"""The exploration loop: choose a touch, reach it, press until contact, record, retract, update.
+
+It talks only to a :class:`robots.interface.Robot` (joint positions, moves), a
+:class:`sensor.interface.TactileSensor` (timestamped readings), a :class:`Positioner` (stand angles),
+the arm's kinematics (the same URDF as the robot) and a recorder; the simulated and the hardware
+backends are interchangeable and the loop never asks which it has.
+
+Per touch:
+
+1. the strategy proposes touches (object frame), the planner turns the first reachable one into a
+   stand pose and a joint path (standoff -> target -> ``depth`` beyond it);
+2. the arm goes to a rest pose when the stand must turn, then to the standoff;
+3. a guarded move follows the approach line until the pressure detector confirms a contact;
+4. the arm keeps pressing (at most ``press_depth_m`` further) until the force estimate reaches
+   ``press_force_n`` and the IMU orientation has settled, so the spring has aligned the pad;
+5. the oriented contact comes from forward kinematics of the encoder readings through the spring
+   pivot and the IMU orientation; it is carried into the object frame with the stand angles,
+   recorded, and added to the GPIS (one incremental update);
+6. a miss (no contact within the path) adds free-space evidence along the swept line.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from explorer.planner import ApproachPlan, ApproachPlanner
+from explorer.positioner import Positioner
+from explorer.strategies import ExplorationState, TouchStrategy
+from explorer.touch import ObjectPrior
+from reconstruction.gpis import GPIS
+from sensor.contact_detection import PressureContactDetector
+from sensor.normal_estimation import (OrientationNotSettledError, SettlingConfig, estimate_normal,
+                                       oriented_contact)
+from sensor.oriented_contact import OrientedContact
+from sensor.reading import Reading
+
+
+@dataclass(frozen=True)
+class LoopConfig:
+    """Exploration settings (SI units).
+
+    Attributes
+    ----------
+    touches : int
+        Touch budget (contacts plus misses).
+    variance_threshold : float or None
+        Stop early when the largest posterior variance on the surface falls below this.
+    approach_speed_mps : float
+        Pad speed along the approach line (the detector needs about 50 ms to confirm a contact,
+        so this sets the overshoot: 0.5 mm at 1 cm/s).
+    press_speed_mps : float
+        Pad speed while pressing on after the contact, waiting for the spring to align the pad.
+    transfer_speed_rad_s : float
+        Joint speed of free moves.
+    press_depth_m : float
+        Extra travel after the contact is confirmed, at most.
+    press_force_n : float
+        The press ends once the force estimate reaches this and the orientation has settled.
+    candidates : int
+        Touches requested from the strategy per step (tried in order until one is reachable).
+    free_space_value : float
+        Implicit-function value given to points swept by a missed approach (about minus half the
+        pad width: the pad passed there, so the surface is at least that far).
+    free_space_noise : float
+        Standard deviation of those values.
+    max_unreachable_in_a_row : int
+        Give up after this many steps without any reachable touch.
+    pad_compliance_m_per_n : float
+        Pad compression per newton (calibration of the sensor's pad): the pad face is pressed
+        ``force x compliance`` into the surface, so the contact point is moved back out by that.
+    """
+
+    touches: int = 50
+    variance_threshold: float | None = None
+    approach_speed_mps: float = 0.01
+    press_speed_mps: float = 0.001
+    transfer_speed_rad_s: float = 1.0
+    press_depth_m: float = 0.002
+    press_force_n: float = 0.8
+    candidates: int = 6
+    free_space_value: float = -0.009
+    free_space_noise: float = 0.005
+    max_unreachable_in_a_row: int = 5
+    pad_compliance_m_per_n: float = 1.0 / 3.0e3
+
+
+@dataclass
+class TouchRecord:
+    """What happened on one touch (object frame unless stated)."""
+
+    index: int
+    kind: str  # "contact" | "miss" | "unreachable" | "no_normal"
+    target_m: np.ndarray
+    approach_dir: np.ndarray
+    stand_yaw_rad: float = 0.0
+    stand_flip_rad: float = 0.0
+    contact: OrientedContact | None = None  # world frame, as measured
+    position_m: np.ndarray | None = None  # object frame
+    normal: np.ndarray | None = None  # object frame
+    t_s: float = 0.0
+
+
+@dataclass
+class PhaseTimes:
+    """Wall-clock seconds spent per phase of the loop."""
+
+    simulation_s: float = 0.0
+    planning_s: float = 0.0
+    gpis_s: float = 0.0
+    selection_s: float = 0.0
+
+    def as_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+class Recorder:
+    """Receives everything the loop sees; the default records nothing."""
+
+    def readings(self, readings: list[Reading]) -> None: ...
+    def joint_state(self, t_s: float, q: np.ndarray) -> None: ...
+    def touch(self, record: TouchRecord) -> None: ...
+    def event(self, kind: str, t_s: float, **fields) -> None: ...
+
+
+class ExplorationLoop:
+    """Runs touches until the budget or the variance threshold is reached.
+
+    Parameters
+    ----------
+    robot : robots.interface.Robot
+    sensor : sensor.interface.TactileSensor (opened by the caller)
+    kinematics : robots.kinematics.ArmKinematics
+    planner : ApproachPlanner
+    positioner : Positioner
+    strategy : TouchStrategy
+    prior : ObjectPrior
+    gpis : GPIS
+        Empty; filled in the object frame.
+    config : LoopConfig
+    recorder : Recorder
+    detector : PressureContactDetector
+    settling : SettlingConfig
+    """
+
+    def __init__(self, robot, sensor, kinematics, planner: ApproachPlanner, positioner: Positioner,
+                 strategy: TouchStrategy, prior: ObjectPrior, gpis: GPIS,
+                 config: LoopConfig = LoopConfig(), recorder: Recorder | None = None,
+                 detector: PressureContactDetector | None = None,
+                 settling: SettlingConfig | None = None):
+        self.robot = robot
+        self.sensor = sensor
+        self.kin = kinematics
+        self.planner = planner
+        self.positioner = positioner
+        self.strategy = strategy
+        self.prior = prior
+        self.gpis = gpis
+        self.config = config
+        self.recorder = recorder or Recorder()
+        self.detector = detector or PressureContactDetector()
+        self.settling = settling or SettlingConfig()
+        self.state = ExplorationState(prior)
+        self.records: list[TouchRecord] = []
+        self.times = PhaseTimes()
+        self._contact_readings: list[Reading] = []
+        self._pending_free_space: list[np.ndarray] = []
+        self._baseline_pa: float | None = None
+        self._last_force_n = 0.0
+
+    # ------------------------------------------------------------------ public
+    @property
+    def contacts(self) -> list[TouchRecord]:
+        return [r for r in self.records if r.kind == "contact"]
+
+    def run(self, progress=None) -> list[TouchRecord]:
+        """Explore until the budget is spent; returns the touch records."""
+        unreachable_in_a_row = 0
+        while self.state.touches < self.config.touches:
+            record = self.step()
+            if progress is not None:
+                progress(record)
+            unreachable_in_a_row = unreachable_in_a_row + 1 if record.kind == "unreachable" else 0
+            if unreachable_in_a_row >= self.config.max_unreachable_in_a_row:
+                self.recorder.event("stopped", self.robot.time_s(), reason="no reachable touch")
+                break
+            if self._variance_converged():
+                self.recorder.event("stopped", self.robot.time_s(), reason="variance below threshold")
+                break
+        return self.records
+
+    def step(self) -> TouchRecord:
+        """One touch: plan, move, press, record, update."""
+        t0 = time.perf_counter()
+        self.state.gpis = self.gpis if self.gpis.n_contacts else None
+        proposals = self.strategy.propose(self.state, self.config.candidates)
+        t1 = time.perf_counter()
+        self.times.selection_s += t1 - t0
+        plan = None
+        for touch in proposals:
+            plan = self.planner.plan(touch, seed_q=self.robot.joint_positions())
+            if plan is not None:
+                break
+            self.state.unreachable_m.append(touch.target_m)
+        self.times.planning_s += time.perf_counter() - t1
+        index = len(self.records)
+        self.state.touches += 1
+        if plan is None:
+            touch = proposals[0] if proposals else None
+            record = TouchRecord(index, "unreachable",
+                                 np.zeros(3) if touch is None else touch.target_m,
+                                 np.zeros(3) if touch is None else touch.approach_dir,
+                                 t_s=self.robot.time_s())
+            return self._finish(record)
+        if hasattr(self.strategy, "accepted"):
+            self.strategy.accepted(plan.touch)
+        return self._finish(self._execute(plan, index))
+
+    # ------------------------------------------------------------------ one touch
+    def _execute(self, plan: ApproachPlan, index: int) -> TouchRecord:
+        cfg = self.config
+        t0 = time.perf_counter()
+        if plan.stand != self.positioner.pose():
+            self.robot.move_joints(self.planner.rest_q, cfg.transfer_speed_rad_s)
+            self.positioner.move_to(plan.stand)
+        self.robot.move_joints(plan.standoff_q, cfg.transfer_speed_rad_s)
+        self._poll()
+        self.detector.reset()
+        self._contact_readings = []
+        speed = self._joint_speed(plan)
+        approach = self.robot.guarded_move(plan.path_q[1:], stop=self._contact_started,
+                                           speed_rad_s=speed)
+        record = TouchRecord(index, "miss", plan.touch.target_m, plan.touch.approach_dir,
+                             plan.stand.yaw_rad, plan.stand.flip_rad, t_s=self.robot.time_s())
+        if approach.stopped:
+            start_pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
+            remaining = plan.path_q[min(approach.waypoint_index + 1, len(plan.path_q) - 1):]
+            self.robot.guarded_move(remaining, stop=lambda: self._press_done(start_pad),
+                                    speed_rad_s=speed * cfg.press_speed_mps / cfg.approach_speed_mps)
+            record = self._contact_record(record)
+        self.robot.move_joints(plan.standoff_q, cfg.transfer_speed_rad_s)
+        self._poll()
+        self.times.simulation_s += time.perf_counter() - t0
+        if record.kind == "contact":
+            self._update_gpis(record.position_m, record.normal)
+        elif record.kind == "miss":
+            self._add_free_space(plan)
+        return record
+
+    def _contact_record(self, record: TouchRecord) -> TouchRecord:
+        q = self.robot.joint_positions()
+        pivot = self.kin.forward_kinematics(q, link=self.kin.spec.pivot_link).position_m
+        try:
+            contact = oriented_contact(self._contact_readings, pivot, self.kin.pivot_to_pad_in_body,
+                                       self._baseline_pa, settling=self.settling)
+        except (OrientationNotSettledError, ValueError) as err:  # ValueError: pressure saturated
+            self.recorder.event("no_normal", self.robot.time_s(), message=str(err))
+            record.kind = "no_normal"
+            return record
+        surface = contact.position_m + contact.normal * contact.force_n * self.config.pad_compliance_m_per_n
+        p_obj, n_obj = self.positioner.to_object(surface[None], contact.normal[None])
+        record.kind = "contact"
+        record.contact = contact
+        record.position_m = p_obj[0]
+        record.normal = n_obj[0] / np.linalg.norm(n_obj[0])
+        record.t_s = contact.t_s
+        return record
+
+    def _finish(self, record: TouchRecord) -> TouchRecord:
+        self.records.append(record)
+        self.recorder.touch(record)
+        return record
+
+    # ------------------------------------------------------------------ sensing
+    def _poll(self) -> list[Reading]:
+        readings = self.sensor.drain()
+        if readings:
+            self.recorder.readings(readings)
+            self.recorder.joint_state(self.robot.time_s(), self.robot.joint_positions())
+        return readings
+
+    def _contact_started(self) -> bool:
+        for reading in self._poll():
+            event = self.detector.update(reading)
+            if self.detector.in_contact or event is not None:
+                self._contact_readings.append(reading)
+            if event is not None and event.kind == "start":
+                self._baseline_pa = event.baseline_pa
+                self.recorder.event("contact_start", event.t_s, baseline_pa=event.baseline_pa)
+                return True
+        return False
+
+    def _press_done(self, start_pad_m: np.ndarray) -> bool:
+        readings = self._poll()
+        for reading in readings:
+            self.detector.update(reading)
+            self._contact_readings.append(reading)
+        if not self._contact_readings:
+            return False
+        rise = self._contact_readings[-1].pressure_pa - (self._baseline_pa or 0.0)
+        pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
+        travelled = float(np.linalg.norm(pad - start_pad_m))
+        pressed = self._force_from_rise(rise) >= self.config.press_force_n
+        return travelled >= self.config.press_depth_m or (pressed and self._settled())
+
+    def _force_from_rise(self, rise_pa: float) -> float:
+        from sensor.sim.pad_response import PadResponse
+
+        pad = PadResponse()
+        return pad.force_n(min(max(rise_pa, 0.0), 0.999 * pad.saturation_pa))
+
+    def _settled(self) -> bool:
+        """The same test the normal estimate applies: a settled window exists in the readings."""
+        try:
+            estimate_normal(self._contact_readings, self._baseline_pa, settling=self.settling)
+        except (OrientationNotSettledError, ValueError):
+            return False
+        return True
+
+    # ------------------------------------------------------------------ model updates
+    def _update_gpis(self, point: np.ndarray, normal: np.ndarray) -> None:
+        t0 = time.perf_counter()
+        first = self.gpis.n_contacts == 0
+        self.gpis.add(point, normal)
+        if first and self._pending_free_space:
+            self._add_values(np.vstack(self._pending_free_space))
+            self._pending_free_space = []
+        self.times.gpis_s += time.perf_counter() - t0
+
+    def _add_free_space(self, plan: ApproachPlan) -> None:
+        """The swept approach line (object frame) is outside the object."""
+        points = self.positioner.to_object(plan.path_world_m)
+        lo, hi = self.gpis.bounds if self.gpis.bounds is not None else (None, None)
+        if lo is not None:
+            points = points[np.all((points > lo) & (points < hi), axis=1)]
+        if not len(points):
+            return
+        if self.gpis.n_contacts == 0:
+            self._pending_free_space.append(points)
+            return
+        t0 = time.perf_counter()
+        self._add_values(points)
+        self.times.gpis_s += time.perf_counter() - t0
+
+    def _add_values(self, points: np.ndarray) -> None:
+        values = np.full(len(points), self.config.free_space_value)
+        self.gpis.add_values(points, values, noise=self.config.free_space_noise)
+
+    def _joint_speed(self, plan: ApproachPlan) -> float:
+        """Joint speed that moves the pad at ``approach_speed_mps`` along the approach line."""
+        joint_length = float(np.max(np.abs(plan.path_q[-1] - plan.path_q[0])))
+        line_length = float(np.linalg.norm(plan.path_world_m[-1] - plan.path_world_m[0]))
+        return max(joint_length / line_length * self.config.approach_speed_mps, 1e-3)
+
+    def _variance_converged(self) -> bool:
+        threshold = self.config.variance_threshold
+        if threshold is None or self.gpis.n_contacts < 4 or not hasattr(self.strategy, "surface_variance"):
+            return False
+        _, variance = self.strategy.surface_variance(ExplorationState(self.prior, self.gpis))
+        return bool(variance.max() < threshold)

@@ -1,0 +1,195 @@
+"""Turning a touch into arm motions: stand pose, standoff pose and a straight approach path.
+
+For a :class:`explorer.touch.Touch` (object frame) the planner
+
+1. ranks the stand poses by how reachable the resulting world approach direction is, using a
+   reachability map of the arm (IK success over approach directions at the stand centre, computed
+   once per planner);
+2. solves batched IK (``robots.ik.PadIK``) for the standoff point and the waypoints of a straight
+   approach line through the target, all seeded from the standoff solution so the path stays on
+   one arm posture;
+3. rejects plans whose joint path jumps (another IK branch), or whose arm links - upper arm and
+   forearm, not the hand and fingertip that must get close - enter the object's prior box.
+
+Works from the kinematics alone (the same URDF as the simulator), so it serves simulated and real
+arms alike.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from explorer.positioner import Positioner, StandPose
+from explorer.strategies import fibonacci_directions
+from explorer.touch import ObjectPrior, Touch
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """Approach geometry and limits (metres, radians).
+
+    Attributes
+    ----------
+    standoff_m : float
+        Pad distance before the target where the guarded move starts.
+    depth_m : float
+        How far beyond the target the guarded move may go before the touch counts as a miss.
+    waypoint_spacing_m : float
+        Spacing of IK waypoints along the approach line.
+    max_joint_step_rad : float
+        Largest joint change between consecutive waypoints (larger = IK jumped branch).
+    reach_map_directions : int
+        Approach directions in the reachability map.
+    reach_cone_rad : float
+        A stand pose scores by the reachable map directions within this angle of its approach.
+    poses_to_try : int
+        Stand poses tried (best reachability first) before a touch counts as unreachable.
+    arm_clearance_m : float
+        Minimum distance of the upper-arm and forearm links from the prior box.
+    """
+
+    standoff_m: float = 0.03
+    depth_m: float = 0.03
+    waypoint_spacing_m: float = 0.01
+    max_joint_step_rad: float = 0.25
+    reach_map_directions: int = 160
+    reach_cone_rad: float = np.radians(20.0)
+    poses_to_try: int = 3
+    arm_clearance_m: float = 0.04
+
+
+@dataclass(frozen=True)
+class ApproachPlan:
+    """A reachable touch.
+
+    Attributes
+    ----------
+    touch : Touch
+        The touch (object frame).
+    stand : StandPose
+        Stand pose to use.
+    target_world_m, approach_world : (3,) float
+        Target and approach direction in the world at that pose.
+    path_q : (k, dof) float
+        Joint waypoints: standoff first, then along the approach line to ``depth_m`` beyond the target.
+    path_world_m : (k, 3) float
+        Pad positions of the waypoints (world).
+    """
+
+    touch: Touch
+    stand: StandPose
+    target_world_m: np.ndarray
+    approach_world: np.ndarray
+    path_q: np.ndarray
+    path_world_m: np.ndarray
+
+    @property
+    def standoff_q(self) -> np.ndarray:
+        return self.path_q[0]
+
+
+class ApproachPlanner:
+    """Plans touches for one arm and one stand.
+
+    Parameters
+    ----------
+    kinematics : robots.kinematics.ArmKinematics
+    ik : robots.ik.PadIK
+    positioner : Positioner
+    prior : ObjectPrior
+        Object frame.
+    config : PlannerConfig
+    rest_q : (dof,) float
+        The arm's resting configuration (seed for the first IK, and the transfer pose).
+    collision_links : tuple of str
+        Links kept ``arm_clearance_m`` away from the prior box (default: the links before the wrist).
+    """
+
+    def __init__(self, kinematics, ik, positioner: Positioner, prior: ObjectPrior,
+                 config: PlannerConfig = PlannerConfig(), rest_q=None, collision_links=None):
+        self.kin = kinematics
+        self.ik = ik
+        self.positioner = positioner
+        self.prior = prior
+        self.config = config
+        self.rest_q = np.asarray(kinematics.spec.home_q if rest_q is None else rest_q, float)
+        names = list(kinematics.link_names)
+        if collision_links is None:  # shoulder to wrist: everything before the hand
+            collision_links = names[1:names.index(kinematics.spec.tool_link) - 1]
+        self.collision_links = tuple(collision_links)
+        self._reach_dirs, self._reachable = self._reachability_map()
+
+    # ------------------------------------------------------------------ reachability
+    def _reachability_map(self) -> tuple[np.ndarray, np.ndarray]:
+        """IK success for pads approaching the stand centre from evenly spread directions."""
+        dirs = fibonacci_directions(self.config.reach_map_directions)
+        radius = float(np.min(self.prior.half_extent_m))
+        result = self.ik.solve(self.positioner.centre_m - radius * dirs, dirs, self.rest_q)
+        return dirs, result.success.copy()
+
+    @property
+    def reachable_fraction_of_directions(self) -> float:
+        """Fraction of approach directions the arm reaches at the stand centre (one stand pose)."""
+        return float(self._reachable.mean())
+
+    def pose_scores(self, approach_object: np.ndarray) -> list[tuple[float, StandPose]]:
+        """Stand poses ranked by the reachable map fraction around the world approach direction."""
+        scores = []
+        cos_cone = np.cos(self.config.reach_cone_rad)
+        current = self.positioner.pose()
+        for pose in self.positioner.poses:
+            _, a_w = self.positioner.to_world(np.zeros((1, 3)), approach_object[None], pose)
+            near = self._reach_dirs @ a_w[0] >= cos_cone
+            score = float(self._reachable[near].mean()) if near.any() else 0.0
+            scores.append((score + (1e-3 if pose == current else 0.0), pose))
+        scores.sort(key=lambda s: -s[0])
+        return scores
+
+    # ------------------------------------------------------------------ planning
+    def plan(self, touch: Touch, seed_q=None) -> ApproachPlan | None:
+        """A plan for ``touch``, or None when no stand pose makes it reachable."""
+        cfg = self.config
+        seed = self.rest_q if seed_q is None else np.asarray(seed_q, float)
+        for score, pose in self.pose_scores(touch.approach_dir)[:cfg.poses_to_try]:
+            if score <= 0.0:
+                break
+            plan = self._plan_at(touch, pose, seed)
+            if plan is not None:
+                return plan
+        return None
+
+    def _plan_at(self, touch: Touch, pose: StandPose, seed: np.ndarray) -> ApproachPlan | None:
+        cfg = self.config
+        target_w, approach_w = self.positioner.to_world(touch.target_m[None], touch.approach_dir[None], pose)
+        target_w, approach_w = target_w[0], approach_w[0]
+        depth = cfg.depth_m if touch.depth_m is None else touch.depth_m
+        offsets = np.arange(-cfg.standoff_m, depth + 1e-9, cfg.waypoint_spacing_m)
+        points = target_w + offsets[:, None] * approach_w
+        standoff = self.ik.solve(points[:1], approach_w[None], seed)
+        if not standoff.success[0]:
+            return None
+        path = self.ik.solve(points, np.repeat(approach_w[None], len(points), 0), standoff.q_rad[0])
+        if not path.success.all():
+            return None
+        q = path.q_rad
+        if np.max(np.abs(np.diff(q, axis=0))) > cfg.max_joint_step_rad:
+            return None
+        if self.arm_intrudes(q[0], pose):
+            return None
+        return ApproachPlan(touch, pose, target_w, approach_w, q, points)
+
+    def arm_points(self, q: np.ndarray, per_segment: int = 5) -> np.ndarray:
+        """(k, 3) world points along the arm from the shoulder to the wrist (segments sampled)."""
+        origins = np.array([self.kin.forward_kinematics(q, link=link).position_m
+                            for link in self.collision_links])
+        s = np.linspace(0.0, 1.0, per_segment, endpoint=False)
+        segments = origins[:-1, None, :] + s[None, :, None] * (origins[1:] - origins[:-1])[:, None, :]
+        return np.vstack([segments.reshape(-1, 3), origins[-1:]])
+
+    def arm_intrudes(self, q: np.ndarray, pose: StandPose) -> bool:
+        """True when the arm from shoulder to wrist comes within clearance of the prior box."""
+        R, t = self.positioner.object_to_world(pose)
+        p_obj = (self.arm_points(q) - t) @ R - self.prior.centre_m
+        excess = np.maximum(np.abs(p_obj) - self.prior.half_extent_m, 0.0)
+        return bool(np.min(np.linalg.norm(excess, axis=1)) < self.config.arm_clearance_m)

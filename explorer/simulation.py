@@ -1,0 +1,95 @@
+"""The simulated backend: a PyBullet world with the arm, the fingertip sensor, the object on a stand.
+
+Everything the exploration loop needs, built from registry names; the loop itself only sees the
+Robot, TactileSensor and Positioner interfaces.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+import objects
+import robots
+from explorer.positioner import SimulatedStand, turntable_poses
+from robots.kinematics import ArmKinematics
+from robots.sim_arm import EncoderModel, SimArm
+from robots.sim_world import SimWorld
+from sensor.sim_sensor import SimulatedSensorConfig, SimulatedTactileSensor
+
+#: Contact stiffness of the 3.7 mm polyurethane pad: a soft cast pad (shore 00, about 0.04 MPa)
+#: over the 18 x 18 mm face compresses about 0.3 mm per newton.
+PAD_STIFFNESS_N_PER_M = 3.0e3
+
+#: 14-bit absolute joint encoders: 2 pi / 2^14 = 0.38 mrad, about 0.27 mm at the fingertip.
+ENCODER_RESOLUTION_RAD = 2 * np.pi / 2**14
+
+
+@dataclass
+class SimScene:
+    """A simulated setup; close it (or use it as a context manager) to release the simulator.
+
+    Attributes
+    ----------
+    world : SimWorld
+    arm : SimArm
+    sensor : SimulatedTactileSensor
+    kinematics : ArmKinematics
+    stand : SimulatedStand
+    object_model : objects.ObjectModel
+        Ground truth (object frame).
+    """
+
+    world: SimWorld
+    arm: SimArm
+    sensor: SimulatedTactileSensor
+    kinematics: ArmKinematics
+    stand: SimulatedStand
+    object_model: "objects.ObjectModel"
+
+    def close(self) -> None:
+        self.sensor.close()
+        self.world.close()
+
+    def __enter__(self) -> "SimScene":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def build_scene(object_name: str, robot_name: str = "armar3", seed: int = 0, gui: bool = False,
+                sensor_config: SimulatedSensorConfig | None = None, yaw_steps: int = 12,
+                flip: bool = True, stand_centre_m=None,
+                pad_stiffness_n_per_m: float = PAD_STIFFNESS_N_PER_M) -> SimScene:
+    """Load the robot, the object on a turntable-with-flip stand at the arm's workspace centre,
+    and the simulated sensor wired to the pad.
+
+    Parameters
+    ----------
+    object_name : str
+        Registry name or mesh file (metres, object frame).
+    robot_name : str
+        Robot registry name.
+    seed : int
+        Seeds the sensor noise and the encoder model.
+    stand_centre_m : (3,) float, optional
+        Where the object-frame origin sits in the world (default: the robot's workspace centre).
+    """
+    model = objects.load(object_name)
+    spec = dataclasses.replace(robots.load(robot_name), pad_contact_stiffness_n_per_m=pad_stiffness_n_per_m)
+    world = SimWorld(gui=gui)
+    try:
+        centre = np.asarray(spec.workspace_center_m if stand_centre_m is None else stand_centre_m, float)
+        handle = world.add_object(model.urdf_path, centre, name=model.name)
+        stand = SimulatedStand(lambda p, q: world.set_object_pose(handle, p, q), centre,
+                               turntable_poses(yaw_steps, flip))
+        arm = SimArm(world, spec, encoder=EncoderModel(resolution_rad=ENCODER_RESOLUTION_RAD, seed=seed))
+        sensor = SimulatedTactileSensor(config=sensor_config, seed=seed)
+        world.add_step_listener(lambda _t: sensor.on_step(arm.pad_state()))
+        sensor.open()
+        return SimScene(world, arm, sensor, ArmKinematics(spec), stand, model)
+    except Exception:
+        world.close()
+        raise
