@@ -7,10 +7,12 @@ held at 0 (the commanded pose).
 Method: Levenberg-Marquardt in torch (float64), batched over targets x candidates, with joint
 limits enforced by clamping plus an active set (joints pressed against a limit are frozen for the
 step). Each target gets ``n_roll_candidates`` starts from the seed that are first pulled towards
-full poses with evenly spaced roll angles about ``a*`` (spreading the solutions over different
-rolls and arm postures), then freed; plus ``n_random_seeds`` uniformly random starts. Per target the
-successful candidate closest to the seed is returned; when none succeeds the best one is returned
-with ``success = False``.
+full poses with evenly spaced roll angles about ``a*`` (the first keeps the seed's own roll),
+spreading the solutions over rolls and arm postures, then freed; plus ``n_random_seeds`` uniformly
+random starts. A candidate stops when converged or stalled; once one has converged, only the
+seed-roll start goes on (``patience_iterations``), since it usually gives the nearest solution.
+Per target the successful candidate closest to the seed is returned; when none succeeds the best
+one is returned with ``success = False``. Unsolved targets get further rounds of random starts.
 """
 from __future__ import annotations
 
@@ -108,7 +110,8 @@ class IKResult:
         return len(self.success)
 
 
-def _unit_rows(values, name: str) -> np.ndarray:
+def _rows3(values, name: str) -> np.ndarray:
+    """(n, 3) finite float array from (3,) or (n, 3) input."""
     array = np.asarray(values, dtype=float)
     if array.ndim == 1:
         array = array[None]
@@ -228,7 +231,7 @@ class PadIK:
                 break
             k = len(unsolved)
             n_guided = opts.n_roll_candidates if round_index == 0 else 0
-            n_random = opts.n_random_seeds + opts.n_roll_candidates - n_guided if round_index else opts.n_random_seeds
+            n_random = opts.n_random_seeds + opts.n_roll_candidates - n_guided
             span = self._upper - self._lower
             random = self._lower + span * torch.rand(k, n_random, dof, generator=generator, dtype=DTYPE)
             starts = torch.cat([seed_t[unsolved].unsqueeze(1).expand(k, n_guided, dof), random], dim=1)
@@ -250,8 +253,8 @@ class PadIK:
         return IKResult(best_q.numpy().copy(), success.numpy().copy(), pos_err.numpy().copy(), ang_err.numpy().copy())
 
     def _checked_inputs(self, positions_m, approach_dirs, q_seed):
-        targets = _unit_rows(positions_m, "positions_m")
-        approach = _unit_rows(approach_dirs, "approach_dirs")
+        targets = _rows3(positions_m, "positions_m")
+        approach = _rows3(approach_dirs, "approach_dirs")
         if len(approach) != len(targets):
             raise ValueError(f"{len(targets)} positions but {len(approach)} approach directions")
         norms = np.linalg.norm(approach, axis=1)

@@ -18,6 +18,7 @@ class JointInfo:
     name: str
     kind: str
     child_link_name: str
+    parent_index: int
     lower_rad: float
     upper_rad: float
     effort_nm: float
@@ -31,6 +32,7 @@ class JointInfo:
             name=raw[1].decode(),
             kind=JOINT_TYPE_NAMES.get(raw[2], str(raw[2])),
             child_link_name=raw[12].decode(),
+            parent_index=int(raw[16]),
             lower_rad=float(raw[8]),
             upper_rad=float(raw[9]),
             effort_nm=float(raw[10]),
@@ -96,6 +98,39 @@ class LinkState:
         else:
             quat = matrix_to_quat(frame_rotation)
         return cls(frame_position, quat / np.linalg.norm(quat), frame_vel, ang_vel)
+
+
+@dataclass(frozen=True)
+class LinkInertia:
+    """Mass properties of a link in the world (``getDynamicsInfo`` + ``getLinkState``).
+
+    Attributes
+    ----------
+    mass_kg : float
+    principal_moments_kgm2 : (3,) float, about the centre of mass along the inertial axes
+    com_position_m : (3,) float, world frame
+    inertial_rotation : (3, 3) float, inertial axes -> world
+    """
+
+    mass_kg: float
+    principal_moments_kgm2: np.ndarray
+    com_position_m: np.ndarray
+    inertial_rotation: np.ndarray
+
+    @classmethod
+    def from_pybullet(cls, dynamics: tuple, link_state: tuple) -> "LinkInertia":
+        return cls(
+            mass_kg=float(dynamics[0]),
+            principal_moments_kgm2=np.asarray(dynamics[2], dtype=float),
+            com_position_m=np.asarray(link_state[0], dtype=float),
+            inertial_rotation=quat_to_matrix(xyzw_to_wxyz(link_state[1])),
+        )
+
+    def about_axis(self, point_m: np.ndarray, axis: np.ndarray) -> float:
+        """Moment of inertia about the line through ``point_m`` along unit ``axis`` (world), kg m^2."""
+        rot = self.inertial_rotation
+        own = axis @ rot @ np.diag(self.principal_moments_kgm2) @ rot.T @ axis
+        return float(own + self.mass_kg * np.linalg.norm(np.cross(self.com_position_m - point_m, axis)) ** 2)
 
 
 @dataclass(frozen=True)

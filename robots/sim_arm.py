@@ -16,8 +16,7 @@ from typing import Callable
 import numpy as np
 
 from robots.interface import GuardedMoveResult, Robot
-from robots.pybullet_types import ContactPoint, JointInfo, JointState, LinkState
-from robots.rotations import quat_to_matrix, xyzw_to_wxyz
+from robots.pybullet_types import ContactPoint, JointInfo, JointState, LinkInertia, LinkState
 from robots.sim_world import SimWorld, import_pybullet
 from robots.spec import RobotSpec
 from robots.urdf_check import check_spec_against_urdf
@@ -123,6 +122,7 @@ class SimArm(Robot):
         pb, client = self._pb, self._client
         infos = [JointInfo.from_pybullet(pb.getJointInfo(self.body, i, physicsClientId=client))
                  for i in range(pb.getNumJoints(self.body, physicsClientId=client))]
+        self._joint_info = infos
         self._joint_index = {info.name: info.index for info in infos}
         self._link_index = {info.child_link_name: info.index for info in infos}
         self._link_name = {index: name for name, index in self._link_index.items()}
@@ -138,11 +138,15 @@ class SimArm(Robot):
         self._gains = (float(position_gain), float(velocity_gain))
         self.encoder = encoder
         self._rng = np.random.default_rng(encoder.seed)
-        self.set_spring(
-            spec.spring_stiffness_nm_per_rad if spring_stiffness_nm_per_rad is None else spring_stiffness_nm_per_rad,
-            spec.spring_damping_nms_per_rad if spring_damping_nms_per_rad is None else spring_damping_nms_per_rad,
-        )
-        self.reset_joint_positions(spec.home_q if q_init_rad is None else q_init_rad)
+        try:
+            self.set_spring(
+                spec.spring_stiffness_nm_per_rad if spring_stiffness_nm_per_rad is None else spring_stiffness_nm_per_rad,
+                spec.spring_damping_nms_per_rad if spring_damping_nms_per_rad is None else spring_damping_nms_per_rad,
+            )
+            self.reset_joint_positions(spec.home_q if q_init_rad is None else q_init_rad)
+        except ValueError:
+            pb.removeBody(self.body, physicsClientId=client)
+            raise
         pb.setJointMotorControlArray(self.body, self._spring_joints, pb.VELOCITY_CONTROL,
                                      targetVelocities=[0.0, 0.0], forces=[0.0, 0.0], physicsClientId=client)
         pb.changeDynamics(
@@ -153,6 +157,11 @@ class SimArm(Robot):
             physicsClientId=client,
         )
         self._remove_hook = world.add_pre_step_hook(self._apply_spring_torque)
+
+    def remove(self) -> None:
+        """Take the arm out of its world (body and spring hook)."""
+        self._remove_hook()
+        self._pb.removeBody(self.body, physicsClientId=self._client)
 
     def reset_joint_positions(self, q_rad) -> None:
         """Teleport the arm to ``q_rad`` ((dof,) radians) at rest, springs at 0, and hold it there.
@@ -199,44 +208,36 @@ class SimArm(Robot):
         pb, client = self._pb, self._client
         inertias = []
         for joint in self._spring_joints:
-            info = pb.getJointInfo(self.body, joint, physicsClientId=client)
             frame = self.link_state(self._link_name[joint])
-            axis = frame.rotation @ np.asarray(info[13], dtype=float)
-            total = 0.0
-            for link in self._descendants(joint):
-                dynamics = pb.getDynamicsInfo(self.body, link, physicsClientId=client)
-                mass, principal = dynamics[0], np.asarray(dynamics[2], dtype=float)
-                raw = pb.getLinkState(self.body, link, computeForwardKinematics=1, physicsClientId=client)
-                com = np.asarray(raw[0], dtype=float)
-                rot = quat_to_matrix(xyzw_to_wxyz(raw[1]))
-                total += axis @ rot @ np.diag(principal) @ rot.T @ axis
-                total += mass * np.linalg.norm(np.cross(com - frame.position_m, axis)) ** 2
-            inertias.append(total)
+            axis = frame.rotation @ self._joint_info[joint].axis
+            links = self._descendants(joint)
+            inertias.append(sum(
+                LinkInertia.from_pybullet(
+                    pb.getDynamicsInfo(self.body, link, physicsClientId=client),
+                    pb.getLinkState(self.body, link, computeForwardKinematics=1, physicsClientId=client),
+                ).about_axis(frame.position_m, axis)
+                for link in links
+            ))
         return float(min(inertias))
 
     def _descendants(self, link: int) -> list[int]:
-        """``link`` and every link below it."""
-        pb, client = self._pb, self._client
-        parents = {i: pb.getJointInfo(self.body, i, physicsClientId=client)[16]
-                   for i in range(pb.getNumJoints(self.body, physicsClientId=client))}
+        """``link`` and every link below it (PyBullet numbers parents before children)."""
         found = [link]
-        for index in sorted(parents):
-            if parents[index] in found:
-                found.append(index)
+        for info in self._joint_info:
+            if info.parent_index in found and info.index not in found:
+                found.append(info.index)
         return found
 
     def _apply_spring_torque(self, _t_s: float) -> None:
         pb = self._pb
-        states = pb.getJointStates(self.body, self._spring_joints, physicsClientId=self._client)
         k, c = self.spring_stiffness_nm_per_rad, self.spring_damping_nms_per_rad
-        torques = [-k * s[0] - c * s[1] for s in states]
+        torques = [-k * s.position_rad - c * s.velocity_rad_s for s in self._joint_states(self._spring_joints)]
         pb.setJointMotorControlArray(self.body, self._spring_joints, pb.TORQUE_CONTROL, forces=torques,
                                      physicsClientId=self._client)
 
     def spring_angles(self) -> np.ndarray:
         """True spring joint angles (2,), radians (not measurable on the real arm)."""
-        states = self._pb.getJointStates(self.body, self._spring_joints, physicsClientId=self._client)
-        return np.array([s[0] for s in states])
+        return np.array([s.position_rad for s in self._joint_states(self._spring_joints)])
 
     def apply_pad_wrench(self, force_n=(0.0, 0.0, 0.0), torque_nm=(0.0, 0.0, 0.0)) -> None:
         """Push the sensor body with an external force (at its origin) and torque, world frame.

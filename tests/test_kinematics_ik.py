@@ -56,6 +56,16 @@ def test_roll_about_the_approach_axis_is_free(kinematics):
     assert np.abs(result.q_rad[0] - kinematics.spec.home_q).max() < 1e-6
 
 
+def test_nearby_targets_give_nearby_solutions(kinematics):
+    """Stepping the target 5 mm along the approach moves the joints a little, not to another posture."""
+    home = kinematics.forward_kinematics(kinematics.spec.home_q)
+    offsets = np.linspace(0.0, 0.02, 5)[:, None]
+    result = PadIK(kinematics).solve(home.position_m + offsets * home.z_axis, np.tile(home.z_axis, (5, 1)))
+    assert result.success.all()
+    path = np.vstack([kinematics.spec.home_q, result.q_rad])
+    assert np.abs(np.diff(path, axis=0)).max() < math.radians(5)
+
+
 def test_approach_frames_have_the_approach_as_z_axis():
     approach = torch.tensor([[0.0, 0.0, -1.0], [1.0, 0.0, 0.0], [0.6, 0.0, 0.8]], dtype=torch.float64)
     frames = approach_frames(approach, torch.tensor([0.0, 1.0, -2.0], dtype=torch.float64))

@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pybullet
 import pytest
 
 import robots
@@ -132,10 +133,18 @@ def test_spring_joints_are_passive_and_return(world, spec):
 
 
 def test_unstable_spring_settings_are_refused(world, spec):
+    bodies = pybullet.getNumBodies(physicsClientId=world.client)
     with pytest.raises(ValueError, match="too stiff for time step"):
-        SimArm(world, spec, spring_stiffness_nm_per_rad=50.0)
+        SimArm(world, spec, spring_stiffness_nm_per_rad=2.0)
     with pytest.raises(ValueError, match="must be >= 0"):
         SimArm(world, spec, spring_damping_nms_per_rad=-1.0)
+    assert pybullet.getNumBodies(physicsClientId=world.client) == bodies  # refused arms leave nothing
+    # the bound scales with dt^2: the same spring is fine with a ten times smaller step
+    with SimWorld(time_step_s=world.time_step_s / 10, table=None) as fine:
+        assert SimArm(fine, spec, spring_stiffness_nm_per_rad=2.0).spring_stiffness_nm_per_rad == 2.0
+    arm = SimArm(world, spec)
+    arm.remove()
+    assert pybullet.getNumBodies(physicsClientId=world.client) == bodies
 
 
 @pytest.mark.parametrize("tilt_deg", [20.0])
@@ -215,6 +224,17 @@ def test_move_rejects_bad_targets_and_reports_blocked_moves(world, spec, box_urd
     _place_tilted_box(world, box_urdf, home, 0.0, gap_m=0.005)
     with pytest.raises(MoveNotReachedError, match="away from its target"):
         arm.move_joints(_approach_path(kinematics, home, 0.03)[-1], speed_rad_s=0.2)
+
+
+def test_reset_teleports_and_holds(world, spec):
+    arm = SimArm(world, spec)
+    target = spec.home_q + np.radians([-10, 10, 0, 10, 0, 5, 5])
+    arm.reset_joint_positions(target)
+    assert np.allclose(arm.true_joint_positions(), target) and world.time_s == 0.0
+    world.step(240)
+    assert np.abs(arm.true_joint_positions() - target).max() < 1e-3
+    with pytest.raises(ValueError, match="outside the joint limits"):
+        arm.reset_joint_positions(spec.home_q + 10.0)
 
 
 def test_encoder_model_adds_noise_and_quantisation(world, spec):
