@@ -17,7 +17,7 @@ one is returned with ``success = False``. Unsolved targets get further rounds of
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 import torch
@@ -76,7 +76,8 @@ class IKOptions:
     def __post_init__(self) -> None:
         if self.n_roll_candidates < 0 or self.n_random_seeds < 0 or self.n_roll_candidates + self.n_random_seeds < 1:
             raise ValueError("IKOptions needs at least one candidate (roll candidates + random seeds)")
-        if self.max_iterations < 1 or self.max_rounds < 1 or self.roll_guided_iterations < 0 or self.patience_iterations < 0:
+        if min(self.max_iterations, self.max_rounds) < 1 or min(self.roll_guided_iterations,
+                                                                 self.patience_iterations) < 0:
             raise ValueError("max_iterations and max_rounds must be >= 1, roll_guided and patience iterations >= 0")
         if self.roll_guided_iterations >= self.max_iterations:
             raise ValueError("roll_guided_iterations must be below max_iterations")
@@ -145,6 +146,50 @@ def _rotation_vector(rot: torch.Tensor) -> torch.Tensor:
     angle = torch.atan2(sin, cos)
     scale = torch.where(sin > 1e-9, angle / (2.0 * sin.clamp(min=1e-12)), torch.full_like(sin, 0.5))
     return skew * scale.unsqueeze(-1)
+
+
+@dataclass
+class _Candidates:
+    """Per-candidate solver state (flat over the live candidates of one round).
+
+    ``target``/``slot`` say whose candidate each row is; ``best_*`` hold the best iterate so far
+    (q, pad position and z axis, weighted residual and Jacobian), ``stalled`` counts iterations
+    without progress.
+    """
+
+    target: torch.Tensor
+    slot: torch.Tensor
+    target_p: torch.Tensor
+    target_a: torch.Tensor
+    target_r: torch.Tensor
+    roll_weight: torch.Tensor
+    damping: torch.Tensor
+    best_cost: torch.Tensor
+    stalled: torch.Tensor
+    best_q: torch.Tensor
+    best_p: torch.Tensor
+    best_z: torch.Tensor
+    best_res: torch.Tensor
+    best_jac: torch.Tensor
+
+    def update(self, trial, residual, jac, p, z) -> None:
+        """Accept ``trial`` where it lowers the cost (then relax the damping, else stiffen it)."""
+        cost = (residual**2).sum(-1)
+        better = cost < self.best_cost
+        progress = cost < self.best_cost * (1.0 - STALL_RELATIVE_GAIN)
+        self.stalled = torch.where(progress, torch.zeros_like(self.stalled), self.stalled + 1)
+        self.best_cost = torch.where(better, cost, self.best_cost)
+        rows = better.unsqueeze(-1)
+        self.best_q = torch.where(rows, trial, self.best_q)
+        self.best_p = torch.where(rows, p, self.best_p)
+        self.best_z = torch.where(rows, z, self.best_z)
+        self.best_res = torch.where(rows, residual, self.best_res)
+        self.best_jac = torch.where(better.reshape(-1, 1, 1), jac, self.best_jac)
+        self.damping = torch.where(better, self.damping / 3.0, self.damping * 4.0).clamp(1e-9, 1e6)
+
+    def subset(self, keep: torch.Tensor) -> "_Candidates":
+        """The candidates where ``keep`` is True."""
+        return _Candidates(**{f.name: getattr(self, f.name)[keep] for f in fields(self)})
 
 
 class PadIK:
@@ -274,80 +319,74 @@ class PadIK:
         """Levenberg-Marquardt from ``starts`` (k, c, dof) towards k targets.
 
         Returns final q (k, c, dof), success (k, c), position and angle errors (k, c). A candidate
-        stops when it has converged; once one of a target's candidates has, only the target's
-        first candidate (started at the seed with the seed's roll, the preferred answer) goes on,
-        for at most ``patience_iterations``.
+        stops when it has converged or stalled; once one of a target's candidates has converged,
+        only the target's first candidate (started at the seed with the seed's roll, the
+        preferred answer) goes on, for at most ``patience_iterations``.
         """
         opts = self.options
         k, c, dof = starts.shape
-        offsets = torch.arange(c, dtype=DTYPE) * (2.0 * math.pi / max(n_guided, 1))
-        # flat working tensors over the live candidates; ``target``/``slot`` say whose they are
-        q = starts.reshape(-1, dof).clone()
-        target = torch.arange(k).repeat_interleave(c)
-        slot = torch.arange(c).repeat(k)
-        t_p, t_a = target_p[target], target_a[target]
-        # roll candidates are spread around the start's own roll, so a start that already solves
-        # the task stays where it is
-        with torch.no_grad():
-            start_x = self.kin.link_transforms(q)[self._pad][:, :3, 0]
-        reference = approach_frames(t_a, torch.zeros(k * c, dtype=DTYPE))
-        start_roll = torch.atan2((start_x * reference[:, :, 1]).sum(-1), (start_x * reference[:, :, 0]).sum(-1))
-        t_r = approach_frames(t_a, start_roll + offsets[slot])
-        weight = (slot < n_guided).to(DTYPE)
+        live = self._initial_candidates(starts, target_p, target_a, n_guided)
         out_q = starts.clone()
         out_p_err = torch.full((k, c), math.inf, dtype=DTYPE)
         out_a_err = torch.full((k, c), math.inf, dtype=DTYPE)
         first_converged = torch.full((k,), -1, dtype=torch.long)
-        damping = torch.full((k * c,), opts.initial_damping, dtype=DTYPE)
-        best_cost = torch.full((k * c,), math.inf, dtype=DTYPE)
-        stalled = torch.zeros(k * c, dtype=torch.long)
-        best_q, best_res, best_jac = q.clone(), None, None
-        best_p, best_z = torch.zeros(k * c, 3, dtype=DTYPE), torch.zeros(k * c, 3, dtype=DTYPE)
-        trial = q
+        trial = live.best_q.clone()
         guided_phase = n_guided > 0 and opts.roll_guided_iterations > 0
         with torch.no_grad():
             for iteration in range(opts.max_iterations + 1):
                 if guided_phase and iteration == opts.roll_guided_iterations:
                     guided_phase = False
-                    weight = torch.zeros_like(weight)
-                    best_cost.fill_(math.inf)  # objective changed: re-evaluate from here
-                residual, jac, p, z = self._residual(self.kin.link_transforms(trial), t_p, t_a, t_r, weight)
-                cost = (residual**2).sum(-1)
-                better = cost < best_cost
-                progress = cost < best_cost * (1.0 - STALL_RELATIVE_GAIN)
-                stalled = torch.where(progress, torch.zeros_like(stalled), stalled + 1)
-                best_cost = torch.where(better, cost, best_cost)
-                best_q = torch.where(better.unsqueeze(-1), trial, best_q)
-                best_p = torch.where(better.unsqueeze(-1), p, best_p)
-                best_z = torch.where(better.unsqueeze(-1), z, best_z)
-                best_res = residual if best_res is None else torch.where(better.unsqueeze(-1), residual, best_res)
-                best_jac = jac if best_jac is None else torch.where(better.reshape(-1, 1, 1), jac, best_jac)
-                damping = torch.where(better, damping / 3.0, damping * 4.0).clamp(1e-9, 1e6)
+                    live.roll_weight = torch.zeros_like(live.roll_weight)
+                    live.best_cost.fill_(math.inf)  # objective changed: re-evaluate from here
+                live.update(trial, *self._residual(self.kin.link_transforms(trial), live.target_p, live.target_a,
+                                                   live.target_r, live.roll_weight))
                 if not guided_phase:
-                    p_err, a_err = self._errors(best_p, best_z, t_p, t_a)
-                    out_q[target, slot] = best_q
-                    out_p_err[target, slot] = p_err
-                    out_a_err[target, slot] = a_err
-                    converged = ((p_err <= POLISH_FRACTION * opts.position_tolerance_m)
-                                 & (a_err <= POLISH_FRACTION * opts.angle_tolerance_rad))
-                    newly = target[converged][first_converged[target[converged]] < 0]
-                    first_converged[newly] = iteration
-                    waited = first_converged[target]
-                    patience_over = iteration - waited >= opts.patience_iterations
-                    finished = converged | ((waited >= 0) & ((slot != 0) | patience_over | (n_guided == 0)))
-                    finished |= stalled >= STALL_ITERATIONS
+                    p_err, a_err = self._errors(live.best_p, live.best_z, live.target_p, live.target_a)
+                    out_q[live.target, live.slot] = live.best_q
+                    out_p_err[live.target, live.slot] = p_err
+                    out_a_err[live.target, live.slot] = a_err
                     if iteration >= opts.max_iterations:
                         break
+                    converged = ((p_err <= POLISH_FRACTION * opts.position_tolerance_m)
+                                 & (a_err <= POLISH_FRACTION * opts.angle_tolerance_rad))
+                    newly = live.target[converged][first_converged[live.target[converged]] < 0]
+                    first_converged[newly] = iteration
+                    waited = first_converged[live.target]
+                    patience_over = iteration - waited >= opts.patience_iterations
+                    others_done = (waited >= 0) & ((live.slot != 0) | patience_over | (n_guided == 0))
+                    finished = converged | others_done | (live.stalled >= STALL_ITERATIONS)
+                    if finished.all():
+                        break
                     if finished.any():
-                        keep = ~finished
-                        if not keep.any():
-                            break
-                        target, slot, t_p, t_a, t_r, weight = target[keep], slot[keep], t_p[keep], t_a[keep], t_r[keep], weight[keep]
-                        damping, best_cost, best_q, stalled = damping[keep], best_cost[keep], best_q[keep], stalled[keep]
-                        best_p, best_z, best_res, best_jac = best_p[keep], best_z[keep], best_res[keep], best_jac[keep]
-                trial = self._step(best_q, best_res, best_jac, damping)
+                        live = live.subset(~finished)
+                trial = self._step(live.best_q, live.best_res, live.best_jac, live.damping)
         ok = (out_p_err <= opts.position_tolerance_m) & (out_a_err <= opts.angle_tolerance_rad)
         return out_q, ok, out_p_err, out_a_err
+
+    def _initial_candidates(self, starts, target_p, target_a, n_guided) -> "_Candidates":
+        k, c, dof = starts.shape
+        q = starts.reshape(-1, dof).clone()
+        target = torch.arange(k).repeat_interleave(c)
+        slot = torch.arange(c).repeat(k)
+        t_a = target_a[target]
+        # roll candidates are spread around the start's own roll, so that a start which already
+        # solves the task stays where it is
+        with torch.no_grad():
+            start_x = self.kin.link_transforms(q)[self._pad][:, :3, 0]
+        reference = approach_frames(t_a, torch.zeros(k * c, dtype=DTYPE))
+        start_roll = torch.atan2((start_x * reference[:, :, 1]).sum(-1), (start_x * reference[:, :, 0]).sum(-1))
+        offsets = torch.arange(c, dtype=DTYPE) * (2.0 * math.pi / max(n_guided, 1))
+        m = k * c
+        return _Candidates(
+            target=target, slot=slot, target_p=target_p[target], target_a=t_a,
+            target_r=approach_frames(t_a, start_roll + offsets[slot]),
+            roll_weight=(slot < n_guided).to(DTYPE),
+            damping=torch.full((m,), self.options.initial_damping, dtype=DTYPE),
+            best_cost=torch.full((m,), math.inf, dtype=DTYPE),
+            stalled=torch.zeros(m, dtype=torch.long),
+            best_q=q, best_p=torch.zeros(m, 3, dtype=DTYPE), best_z=torch.zeros(m, 3, dtype=DTYPE),
+            best_res=torch.zeros(m, 6, dtype=DTYPE), best_jac=torch.zeros(m, 6, dof, dtype=DTYPE),
+        )
 
     def _errors(self, p, z, target_p, target_a):
         pos_err = torch.linalg.norm(p - target_p, dim=-1)

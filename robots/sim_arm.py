@@ -139,10 +139,9 @@ class SimArm(Robot):
         self.encoder = encoder
         self._rng = np.random.default_rng(encoder.seed)
         try:
-            self.set_spring(
-                spec.spring_stiffness_nm_per_rad if spring_stiffness_nm_per_rad is None else spring_stiffness_nm_per_rad,
-                spec.spring_damping_nms_per_rad if spring_damping_nms_per_rad is None else spring_damping_nms_per_rad,
-            )
+            stiffness, damping = spring_stiffness_nm_per_rad, spring_damping_nms_per_rad
+            self.set_spring(spec.spring_stiffness_nm_per_rad if stiffness is None else stiffness,
+                            spec.spring_damping_nms_per_rad if damping is None else damping)
             self.reset_joint_positions(spec.home_q if q_init_rad is None else q_init_rad)
         except ValueError:
             pb.removeBody(self.body, physicsClientId=client)

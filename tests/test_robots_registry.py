@@ -75,7 +75,8 @@ def test_urdf_without_fingertip_names_what_is_missing(tmp_path):
 def test_misplaced_fingertip_joints_are_reported(tmp_path):
     urdf = _arm_urdf(tmp_path)
     # a spec that calls an arm joint a spring and vice versa
-    wrong = _user_spec(urdf, joint_names=armar3.JOINT_NAMES[:-1] + ("spring_x",), spring_joint_names=("wrist_2", "spring_y"))
+    wrong = _user_spec(urdf, joint_names=armar3.JOINT_NAMES[:-1] + ("spring_x",),
+                       spring_joint_names=("wrist_2", "spring_y"))
     with pytest.raises(ValueError, match="beyond the pivot"):
         check_spec_against_urdf(wrong)
     missing_file = _user_spec(tmp_path / "nowhere.urdf")
