@@ -299,8 +299,9 @@ class SimArm(Robot):
     def guarded_move(self, path, stop: Callable[[], bool], speed_rad_s: float = 0.2) -> GuardedMoveResult:
         """Follow ``path`` ((k, dof) radians) from the current position, checking ``stop()`` each tick.
 
-        The path is interpolated linearly so that the fastest joint moves at ``speed_rad_s``. When
-        ``stop()`` returns True the arm holds the position it has reached and the call returns.
+        The path is interpolated linearly so that the fastest joint moves at ``speed_rad_s`` (or
+        slower where a joint's URDF velocity limit is lower). When ``stop()`` returns True the arm
+        holds the position it has reached and the call returns.
         """
         path = np.asarray(path, dtype=float)
         if path.ndim != 2 or path.shape[1] != self.dof or len(path) == 0:
@@ -398,7 +399,8 @@ class SimArm(Robot):
         tick_s = self.control_steps * self.world.time_step_s
         start = self.true_joint_positions()
         points = np.vstack([start[None], path])
-        durations = np.max(np.abs(np.diff(points, axis=0)), axis=1) / speed_rad_s
+        joint_speed = np.minimum(speed_rad_s, self.velocity_limit_rad_s)  # never beyond the URDF limits
+        durations = np.max(np.abs(np.diff(points, axis=0)) / joint_speed, axis=1)
         ends = np.cumsum(durations)
         total = float(ends[-1]) if len(ends) else 0.0
         t = 0.0

@@ -209,6 +209,10 @@ def test_guarded_move_runs_the_whole_path_when_never_stopped(world, spec):
     assert not result.stopped and result.waypoint_index == 0
     assert np.abs(result.q - target).max() < 2e-3
     assert arm.time_s() - t0 >= math.radians(5) / 0.5
+    # a request beyond the joints' velocity limits is slowed down to them
+    t0 = arm.time_s()
+    arm.move_joints(spec.home_q, speed_rad_s=100.0)
+    assert arm.time_s() - t0 >= np.max(np.abs(target - spec.home_q) / arm.velocity_limit_rad_s)
 
 
 def test_move_rejects_bad_targets_and_reports_blocked_moves(world, spec, box_urdf, kinematics):
