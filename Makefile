@@ -17,7 +17,7 @@ $(VENV)/.installed: setup.cfg pyproject.toml
 	touch $@
 
 main: install
-	$(VENV)/bin/tactile-gpis-bench --out $(OUT)/reconstruction
+	$(VENV)/bin/tactile-explore --out $(OUT)/explore
 
 test: install
 	$(PY) -m pytest

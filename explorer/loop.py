@@ -281,15 +281,17 @@ class ExplorationLoop:
         return readings
 
     def _contact_started(self) -> bool:
+        """Feed every new reading to the detector; keep the readings from the confirmed start on."""
+        started = False
         for reading in self._poll():
             event = self.detector.update(reading)
-            if self.detector.in_contact or event is not None:
-                self._contact_readings.append(reading)
             if event is not None and event.kind == "start":
+                started = True
                 self._baseline_pa = event.baseline_pa
                 self.recorder.event("contact_start", event.t_s, baseline_pa=event.baseline_pa)
-                return True
-        return False
+            if started:
+                self._contact_readings.append(reading)
+        return started
 
     def _press_done(self, start_pad_m: np.ndarray) -> bool:
         readings = self._poll()

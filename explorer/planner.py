@@ -151,6 +151,7 @@ class ApproachPlanner:
         """A plan for ``touch``, or None when no stand pose makes it reachable."""
         cfg = self.config
         seed = self.rest_q if seed_q is None else np.asarray(seed_q, float)
+        seed = np.clip(seed, self.kin.lower_rad, self.kin.upper_rad)  # encoders may read past a limit
         for score, pose in self.pose_scores(touch.approach_dir)[:cfg.poses_to_try]:
             if score <= 0.0:
                 break

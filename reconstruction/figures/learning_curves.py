@@ -37,7 +37,8 @@ def curve_summary(errors, band: str = "minmax") -> tuple[np.ndarray, np.ndarray,
 
 
 def error_vs_touches_figure(curves: Mapping[str, np.ndarray], ylabel: str = "position RMSE (mm)",
-                            scale: float = MM_PER_M, band: str = "minmax", log_y: bool = False):
+                            scale: float = MM_PER_M, band: str = "minmax", log_y: bool = False,
+                            touches=None):
     """The Figure of :func:`error_vs_touches` (not written)."""
     if not isinstance(curves, Mapping) or not curves:
         raise ValueError("curves must be a non-empty dict strategy name -> (seeds, touches) errors")
@@ -53,11 +54,13 @@ def error_vs_touches_figure(curves: Mapping[str, np.ndarray], ylabel: str = "pos
     ax = figure.add_subplot()
     colours = _palette(len(summaries))
     for (name, (mean, lower, upper)), colour in zip(summaries.items(), colours):
-        touches = np.arange(1, len(mean) + 1)
+        x = np.arange(1, len(mean) + 1) if touches is None else np.asarray(touches, float)
+        if len(x) != len(mean):
+            raise ValueError(f"touches has {len(x)} values, strategy {name!r} has {len(mean)} columns")
         seeds = len(np.atleast_2d(curves[name]))
-        ax.fill_between(touches, scale * lower, scale * upper, color=colour, alpha=0.2, linewidth=0,
+        ax.fill_between(x, scale * lower, scale * upper, color=colour, alpha=0.2, linewidth=0,
                         gid=f"band:{name}")
-        ax.plot(touches, scale * mean, color=colour, linewidth=1.8, gid=f"mean:{name}",
+        ax.plot(x, scale * mean, color=colour, linewidth=1.8, gid=f"mean:{name}",
                 label=f"{name} ({seeds} seeds)")
     if log_y:
         ax.set_yscale("log")
@@ -74,7 +77,8 @@ def error_vs_touches_figure(curves: Mapping[str, np.ndarray], ylabel: str = "pos
 
 
 def error_vs_touches(curves: Mapping[str, np.ndarray], path, ylabel: str = "position RMSE (mm)",
-                     scale: float = MM_PER_M, band: str = "minmax", log_y: bool = False):
+                     scale: float = MM_PER_M, band: str = "minmax", log_y: bool = False,
+                     touches=None):
     """Write one curve per strategy: the mean error over seeds after each touch, with a band.
 
     Parameters
@@ -93,13 +97,15 @@ def error_vs_touches(curves: Mapping[str, np.ndarray], path, ylabel: str = "posi
         Band of min-max over seeds, or mean +- one standard deviation.
     log_y : bool
         Logarithmic error axis.
+    touches : (k,) float, optional
+        Touch counts of the columns (default 1, 2, ..., k), for errors evaluated every few touches.
 
     Returns
     -------
     Path of the PNG written.
     """
     check_png_path(path)
-    return save_png(error_vs_touches_figure(curves, ylabel, scale, band, log_y), path)
+    return save_png(error_vs_touches_figure(curves, ylabel, scale, band, log_y, touches), path)
 
 
 def _palette(n: int) -> list:

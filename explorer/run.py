@@ -1,0 +1,204 @@
+"""A whole simulated exploration run: scene, loop, outputs. The main job of the project.
+
+Writes to the output directory, as the run goes:
+
+* ``session/``          everything the run saw (sensor stream, joint states, contacts, events);
+* ``contacts.csv``      one row per contact, object frame, metres, outward normals;
+
+and at the end (also after an interruption, from what was recorded):
+
+* ``reconstruction.ply`` the GPIS mean surface, object frame;
+* ``metrics.json``       errors against the ground truth, touches, misses, coverage, times;
+* ``reconstruction_error.png``, ``error_vs_touches.png``, ``potential_slice.png``.
+"""
+from __future__ import annotations
+
+import json
+import platform
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from explorer.coverage import reachable_fraction
+from explorer.loop import ExplorationLoop, LoopConfig, TouchRecord
+from explorer.planner import ApproachPlanner, PlannerConfig
+from explorer.recording import RunRecorder
+from explorer.simulation import build_scene
+from explorer.strategies import make_strategy
+from explorer.touch import ObjectPrior
+from reconstruction.gpis import GPIS
+from reconstruction.metrics import contact_coverage, surface_error
+
+#: The prior box: the object's bounding box grown by this fraction of its size plus a centimetre
+#: (a rough location and size; an over-estimate is safe).
+PRIOR_GROWTH = 0.1
+PRIOR_MARGIN_M = 0.01
+#: Contacts within this distance of a surface point count as covering it.
+COVERAGE_RADIUS_M = 0.01
+
+
+@dataclass
+class RunSettings:
+    """Everything that defines a run (saved in the session metadata)."""
+
+    object: str = "banana"
+    robot: str = "armar3"
+    strategy: str = "variance"
+    touches: int = 50
+    seed: int = 0
+    use_normals: bool = True
+    gui: bool = False
+    eval_every: int = 5
+    mesh_resolution: int = 96
+    loop: LoopConfig = field(default_factory=LoopConfig)
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
+
+
+@dataclass
+class RunResult:
+    records: list[TouchRecord]
+    gpis: GPIS
+    metrics: dict
+    out_dir: Path
+
+
+def object_prior(mesh) -> ObjectPrior:
+    """The rough location and size the loop is given (object frame)."""
+    lo, hi = mesh.bounds
+    return ObjectPrior(0.5 * (lo + hi), 0.5 * (hi - lo) * (1 + PRIOR_GROWTH) + PRIOR_MARGIN_M)
+
+
+def explore(settings: RunSettings, out_dir: Path, progress=None) -> RunResult:
+    """Run one simulated exploration and write its outputs to ``out_dir``."""
+    from robots.ik import PadIK
+
+    out_dir = Path(out_dir)
+    wall0 = time.perf_counter()
+    loop_settings = LoopConfig(**{**asdict(settings.loop), "touches": settings.touches})
+    with build_scene(settings.object, settings.robot, seed=settings.seed, gui=settings.gui) as scene:
+        truth = scene.object_model.mesh
+        prior = object_prior(truth)
+        planner = ApproachPlanner(scene.kinematics, PadIK(scene.kinematics), scene.stand, prior,
+                                  settings.planner)
+        gpis = GPIS(bounds=prior.bounds(), use_normals=settings.use_normals)
+        metadata = dict(robot=settings.robot, sensor="simulated BNO055 + BMP280 under polyurethane",
+                        object=settings.object, seed=settings.seed,
+                        configuration=_jsonable(asdict(settings)), backend="simulation")
+        recorder = RunRecorder(out_dir, metadata)
+        loop = ExplorationLoop(scene.arm, scene.sensor, scene.kinematics, planner, scene.stand,
+                               make_strategy(settings.strategy, settings.seed), prior, gpis,
+                               loop_settings, recorder)
+        curve: list[tuple[int, float, float]] = []
+        eval_s = [0.0]
+
+        def after_touch(record: TouchRecord) -> None:
+            if progress is not None:
+                progress(record)
+            n = len(loop.records)
+            if settings.eval_every and n % settings.eval_every == 0 and gpis.n_contacts >= 4:
+                t0 = time.perf_counter()
+                try:
+                    err = surface_error(gpis.mesh(resolution=48), truth, n_samples=5000,
+                                        sharp_edges=np.zeros((0, 2, 3)))
+                    curve.append((n, err.position_rmse_mm, err.normal_rmse_deg))
+                except ValueError:
+                    pass
+                eval_s[0] += time.perf_counter() - t0
+
+        error: BaseException | None = None
+        try:
+            loop.run(after_touch)
+        except BaseException as exc:  # keep what was recorded, then re-raise
+            error = exc
+            raise
+        finally:
+            sim_time_s = scene.arm.time_s()
+            metrics = _finish(loop, gpis, truth, planner, prior, out_dir, recorder, settings, curve,
+                              sim_time_s, time.perf_counter() - wall0, eval_s[0], error)
+    return RunResult(loop.records, gpis, metrics, out_dir)
+
+
+def _finish(loop, gpis, truth, planner, prior, out_dir, recorder, settings, curve, sim_time_s,
+            wall_s, eval_s, error) -> dict:
+    records = loop.records
+    kinds = [r.kind for r in records]
+    metrics: dict = dict(
+        object=settings.object, robot=settings.robot, strategy=settings.strategy,
+        seed=settings.seed, use_normals=settings.use_normals,
+        touches=len(records), contacts=kinds.count("contact"), misses=kinds.count("miss"),
+        unreachable=kinds.count("unreachable"), no_normal=kinds.count("no_normal"),
+        wall_time_s=wall_s, simulated_time_s=sim_time_s,
+        phase_times_s=loop.times.as_dict(), evaluation_time_s=eval_s,
+        completed=error is None, machine=f"{platform.machine()}, python {platform.python_version()}",
+    )
+    mesh = None
+    if gpis.n_contacts:
+        try:
+            mesh = gpis.mesh(resolution=settings.mesh_resolution)
+            mesh.export(out_dir / "reconstruction.ply")
+            recorder.reconstruction(mesh, gpis.n_contacts, sim_time_s)
+        except ValueError as exc:
+            metrics["reconstruction_error"] = str(exc)
+    if mesh is not None:
+        err = surface_error(mesh, truth)
+        metrics.update(position_rmse_mm=err.position_rmse_mm, normal_rmse_deg=err.normal_rmse_deg,
+                       edge_rmse_mm=err.edge_rmse_mm, surface_error=_jsonable(asdict(err)))
+    contacts = np.array([r.position_m for r in records if r.kind == "contact"]).reshape(-1, 3)
+    if len(contacts):
+        metrics["coverage"] = contact_coverage(contacts, truth, COVERAGE_RADIUS_M)
+        metrics["coverage_radius_m"] = COVERAGE_RADIUS_M
+        normals_true = _true_normals(truth, contacts)
+        measured = np.array([r.normal for r in records if r.kind == "contact"])
+        angles = np.degrees(np.arccos(np.clip(np.sum(measured * normals_true, 1), -1, 1)))
+        metrics["contact_normal_error_mean_deg"] = float(angles.mean())
+        metrics["contact_position_error_rms_mm"] = float(
+            1e3 * np.sqrt(np.mean(_distances(truth, contacts) ** 2)))
+    metrics["reachable_fraction"] = reachable_fraction(planner, truth, n_samples=48, seed=settings.seed)
+    metrics["error_curve"] = [dict(touches=n, position_rmse_mm=p, normal_rmse_deg=a) for n, p, a in curve]
+    (out_dir / "metrics.json").write_text(json.dumps(_jsonable(metrics), indent=2))
+    if mesh is not None:
+        _plots(out_dir, gpis, mesh, truth, contacts, curve, settings)
+    recorder.close(error)
+    return metrics
+
+
+def _plots(out_dir, gpis, mesh, truth, contacts, curve, settings) -> None:
+    from reconstruction import figures
+
+    figures.error_coloured_views(mesh, truth, contacts, out_dir / "reconstruction_error.png")
+    if curve:
+        errors = np.array([[p * 1e-3 for _, p, _ in curve]])
+        figures.error_vs_touches({settings.strategy: errors}, out_dir / "error_vs_touches.png",
+                                 touches=[n for n, _, _ in curve])
+    figures.potential_slice(gpis if settings.use_normals else None,
+                            None if settings.use_normals else gpis, truth,
+                            path=out_dir / "potential_slice.png")
+
+
+def _true_normals(mesh, points):
+    from objects.proximity import MeshProximity
+
+    _, _, face = MeshProximity(mesh).query(points)
+    return mesh.face_normals[face]
+
+
+def _distances(mesh, points):
+    from objects.proximity import MeshProximity
+
+    return MeshProximity(mesh).query(points)[1]
+
+
+def _jsonable(value):
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    return value
