@@ -104,6 +104,25 @@ def test_world_errors_name_the_problem(tmp_path, box_urdf):
         sim.step()
 
 
+def test_set_object_pose_moves_a_static_object(world, spec, kinematics, box_urdf):
+    arm = SimArm(world, spec)
+    handle = world.add_object(box_urdf, (2.0, 2.0, 0.05))
+    world.step(12)
+    assert arm.pad_state().normal_force_n == 0.0
+    home = kinematics.forward_kinematics(spec.home_q)
+    normal = -home.z_axis
+    x = np.cross([0.0, 1.0, 0.0], normal)
+    x /= np.linalg.norm(x)
+    frame = np.stack([x, np.cross(normal, x), normal], axis=1)
+    face = home.position_m - 0.001 * home.z_axis  # 1 mm into the pad
+    world.set_object_pose(handle, face - BOX_SIZE[2] / 2 * normal, matrix_to_quat(frame))
+    world.step(12)
+    assert arm.pad_state().normal_force_n > 0.0
+    world.remove_object(handle)
+    with pytest.raises(ValueError, match="not in this world"):
+        world.set_object_pose(handle, (0, 0, 0), (1, 0, 0, 0))
+
+
 # ---- spring fingertip ---------------------------------------------------------------------------
 
 
