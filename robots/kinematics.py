@@ -175,17 +175,18 @@ class ArmKinematics:
             transform = self.link_transforms(q_t, spring_t)[index].numpy()
         return LinkPoses(transform[:, :3, 3].reshape(batch + (3,)), transform[:, :3, :3].reshape(batch + (3, 3)))
 
-    def jacobian(self, q, link: str | None = None, spring_rad=None) -> np.ndarray:
-        """Geometric Jacobian (..., 6, dof) of ``link``'s origin w.r.t. the actuated joints.
+    def jacobian(self, q, link: str | None = None, spring_rad=None, with_springs: bool = False) -> np.ndarray:
+        """Geometric Jacobian (..., 6, dof [+2]) of ``link``'s origin w.r.t. the actuated joints.
 
         Rows 0-2: linear velocity (m/s per rad/s), rows 3-5: angular velocity, world frame.
+        With ``with_springs`` two more columns follow for the spring joints.
         """
         index_name = link or self.spec.pad_link
         self._link(index_name)
         q_t, spring_t, batch = self._as_batch(q, spring_rad)
         with torch.no_grad():
-            jac = self.jacobian_tensor(self.link_transforms(q_t, spring_t), index_name).numpy()
-        return jac.reshape(batch + (6, self.dof))
+            jac = self.jacobian_tensor(self.link_transforms(q_t, spring_t), index_name, with_springs).numpy()
+        return jac.reshape(batch + (6, self.dof + (2 if with_springs else 0)))
 
     @property
     def pivot_to_pad_in_body(self) -> np.ndarray:

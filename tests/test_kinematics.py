@@ -101,6 +101,28 @@ def test_jacobian_matches_finite_differences(kinematics):
             assert np.allclose(jac[:, 3:, j], angular, atol=1e-7), (link, j)
 
 
+def test_spring_columns_of_the_jacobian_match_finite_differences(kinematics):
+    q, springs = _random_configs(kinematics, 3, seed=6)
+    jac = kinematics.jacobian(q, spring_rad=springs, with_springs=True)
+    assert jac.shape == (3, 6, kinematics.dof + 2)
+    assert np.allclose(jac[:, :, :kinematics.dof], kinematics.jacobian(q, spring_rad=springs))
+    step = 1e-6
+    for j in range(2):
+        ds = np.zeros(2)
+        ds[j] = step
+        plus = kinematics.forward_kinematics(q, spring_rad=springs + ds)
+        minus = kinematics.forward_kinematics(q, spring_rad=springs - ds)
+        linear = (plus.position_m - minus.position_m) / (2 * step)
+        assert np.allclose(jac[:, :3, kinematics.dof + j], linear, atol=1e-7)
+        # the pad turns about the spring axis through the pivot: v = axis x (pad - pivot)
+        frame = kinematics.forward_kinematics(q, ("sensor_pivot", "spring_gimbal")[j], springs)
+        axis = frame.rotation[:, :, j]
+        pad = kinematics.forward_kinematics(q, spring_rad=springs).position_m
+        assert np.allclose(np.cross(axis, pad - frame.position_m), linear, atol=1e-7)
+    # arm links before the pivot do not depend on the springs
+    assert np.allclose(kinematics.jacobian(q, "elbow_link", springs, with_springs=True)[:, :, -2:], 0.0)
+
+
 def test_pad_position_from_measured_orientation(kinematics):
     """Pivot from the encoders + IMU orientation reproduces the true pad with deflected springs."""
     spec = kinematics.spec
