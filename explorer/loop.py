@@ -215,6 +215,7 @@ class ExplorationLoop:
             return self._finish(record)
         if hasattr(self.strategy, "accepted"):
             self.strategy.accepted(plan.touch)
+        self.state.tried_m.append(plan.touch.target_m)
         return self._finish(self._execute(plan, index))
 
     # ------------------------------------------------------------------ one touch

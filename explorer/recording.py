@@ -56,11 +56,10 @@ class RunRecorder(Recorder):
         if record.kind != "contact":
             return
         self.session.write_contact(record.contact)
-        p, n = record.position_m, record.normal
-        self._contacts.write(
-            f"{record.index},{p[0]!r},{p[1]!r},{p[2]!r},{n[0]!r},{n[1]!r},{n[2]!r},"
-            f"{record.contact.t_s!r},{record.contact.force_n!r},{record.stand_yaw_rad!r},"
-            f"{record.stand_flip_rad!r}\n")
+        values = [*record.position_m, *record.normal, record.contact.t_s, record.contact.force_n,
+                  record.stand_yaw_rad, record.stand_flip_rad]
+        # repr of a Python float round-trips exactly
+        self._contacts.write(f"{record.index}," + ",".join(repr(float(v)) for v in values) + "\n")
         self._flush()
 
     def event(self, kind: str, t_s: float, **fields) -> None:

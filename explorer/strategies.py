@@ -35,12 +35,17 @@ class ExplorationState:
         Touches tried so far (contacts and misses).
     unreachable_m : list of (3,) float
         Targets the planner could not reach; strategies avoid their neighbourhood.
+    tried_m : list of (3,) float
+        Targets already touched. ``variance`` avoids them too: where the pad lands away from the
+        target (an edge, a tip) the variance at the target stays high, and without this it would
+        be chosen again and again.
     """
 
     prior: ObjectPrior
     gpis: GPIS | None = None
     touches: int = 0
     unreachable_m: list[np.ndarray] = field(default_factory=list)
+    tried_m: list[np.ndarray] = field(default_factory=list)
 
 
 class TouchStrategy(abc.ABC):
@@ -200,7 +205,7 @@ class VarianceStrategy(TouchStrategy):
         if gp is None or gp.n_contacts < self.initial_touches or state.touches < self.initial_touches:
             return self._uniform.propose(state, count)
         points, variance = self.surface_variance(state)
-        keep = _not_near(points, state.unreachable_m, self.avoid_radius_m)
+        keep = _not_near(points, state.unreachable_m + state.tried_m, self.avoid_radius_m)
         points, variance = points[keep], variance[keep]
         order = np.argsort(-variance)
         chosen: list[int] = []
