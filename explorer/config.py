@@ -1,0 +1,417 @@
+"""Backend configuration: which robot and sensor to use and how to reach them, from a TOML or JSON file.
+
+::
+
+    [robot]
+    backend = "serial"          # "sim" | "serial"
+    spec = "armar3"             # registered robot name or robot spec .json path
+    port = "/dev/ttyUSB0"       # or "armemu://armar3" (emulated controller)
+
+    [sensor]
+    backend = "i2c"             # "sim" | "i2c" | "uart" | "mcu" | "emulated"
+    bus = 1
+    bmp280_address = 0x76
+    bno055_address = 0x28
+    calibration = "calibration.json"   # relative to this file
+
+:func:`load_config` reads and checks a file (every error names the key), :func:`open_backends`
+opens both devices as a context manager. The simulated backends (``backend = "sim"``) are built
+by a callable the explorer passes in (:func:`open_sim_backends`), so this module needs neither
+PyBullet nor the hardware packages until a device is opened.
+"""
+from __future__ import annotations
+
+import contextlib
+import difflib
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any, Callable, ContextManager, Iterator
+
+ROBOT_BACKENDS = ("sim", "serial")
+SENSOR_BACKENDS = ("sim", "i2c", "uart", "mcu", "emulated")
+BMP280_ADDRESSES = (0x76, 0x77)
+BNO055_ADDRESSES = (0x28, 0x29)
+BNO055_UART_BAUD = 115200
+MCU_DEFAULT_BAUD = 230400
+FUSION_MODES = ("IMU", "COMPASS", "M4G", "NDOF_FMC_OFF", "NDOF")
+
+SimBuilder = Callable[["BackendConfig"], ContextManager[tuple[Any, Any]]]
+"""Builds the simulated robot and sensor for a config; a context manager yielding ``(robot, sensor)``."""
+
+
+def _fail(key: str, message: str) -> ValueError:
+    return ValueError(f"{key}: {message}")
+
+
+def _choice(key: str, value: Any, choices: tuple[str, ...]) -> str:
+    if value not in choices:
+        raise _fail(key, f"{value!r} is not one of {', '.join(repr(c) for c in choices)}")
+    return value
+
+
+def _integer(key: str, value: Any, low: int, high: int | None = None) -> int:
+    if isinstance(value, str) and value.lower().startswith("0x"):  # JSON has no hex literals
+        try:
+            value = int(value, 16)
+        except ValueError:
+            raise _fail(key, f"{value!r} is not a hexadecimal integer") from None
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise _fail(key, f"expected an integer, got {value!r}")
+    if value < low or (high is not None and value > high):
+        bound = f">= {low}" if high is None else f"in {low}..{high}"
+        raise _fail(key, f"{value} must be {bound}")
+    return value
+
+
+def _positive(key: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise _fail(key, f"expected a positive number, got {value!r}")
+    return float(value)
+
+
+def _port(key: str, value: Any) -> str | None:
+    if value is None:
+        return None
+    if not isinstance(value, str) or not value.strip():
+        raise _fail(key, f"expected a device path or URL such as '/dev/ttyUSB0', got {value!r}")
+    return value
+
+
+def _address(key: str, value: Any, allowed: tuple[int, ...], wiring: str) -> int:
+    value = _integer(key, value, 0, 0x7F)
+    if value not in allowed:
+        raise _fail(key, f"0x{value:02X} is not a possible address of this chip ({wiring})")
+    return value
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """``[robot]``: the arm backend.
+
+    Attributes
+    ----------
+    backend : {"sim", "serial"}
+    spec : str
+        Registered robot name or robot spec ``.json`` path.
+    port : str or None
+        Serial device or pyserial URL of the controller (required for ``"serial"``).
+    baudrate : int
+    control_rate_hz : float
+        Joint-target streaming rate, Hz.
+    reply_timeout_s : float
+        Per-attempt reply timeout, seconds.
+    attempts : int
+        Tries per request.
+    """
+
+    backend: str = "sim"
+    spec: str = "armar3"
+    port: str | None = None
+    baudrate: int = 1_000_000
+    control_rate_hz: float = 100.0
+    reply_timeout_s: float = 0.05
+    attempts: int = 4
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        _choice("robot.backend", self.backend, ROBOT_BACKENDS)
+        if not isinstance(self.spec, str) or not self.spec:
+            raise _fail("robot.spec", f"expected a robot name or spec file, got {self.spec!r}")
+        set_(self, "port", _port("robot.port", self.port))
+        if self.backend == "serial" and self.port is None:
+            raise _fail("robot.port", "required when robot.backend = 'serial' (e.g. '/dev/ttyUSB0' or "
+                                      "'armemu://armar3')")
+        set_(self, "baudrate", _integer("robot.baudrate", self.baudrate, 1))
+        set_(self, "control_rate_hz", _positive("robot.control_rate_hz", self.control_rate_hz))
+        set_(self, "reply_timeout_s", _positive("robot.reply_timeout_s", self.reply_timeout_s))
+        set_(self, "attempts", _integer("robot.attempts", self.attempts, 1, 100))
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """``[sensor]``: the fingertip sensor backend.
+
+    Attributes
+    ----------
+    backend : {"sim", "i2c", "uart", "mcu", "emulated"}
+        ``i2c``: both chips on the I2C bus; ``uart``: BMP280 on I2C, BNO055 on its UART;
+        ``mcu``: both behind a microcontroller streaming ``$T`` lines; ``emulated``: emulated
+        chips pressed on a level table by a script (no hardware).
+    bus : int
+        I2C bus number (``/dev/i2c-<bus>``).
+    bmp280_address, bno055_address : int
+        I2C addresses (0x76/0x77 and 0x28/0x29).
+    port : str or None
+        Serial device or pyserial URL: the BNO055 UART (``uart``) or the microcontroller (``mcu``).
+    baudrate : int or None
+        Default 115200 for the BNO055 UART, 230400 for a microcontroller.
+    imu_mode : str
+        BNO055 fusion mode name.
+    calibration : Path or None
+        Calibration file written by ``sensor-monitor --calibrate``.
+    read_timeout_s : float
+        How long the first reading may take, seconds.
+    """
+
+    backend: str = "sim"
+    bus: int = 1
+    bmp280_address: int = 0x76
+    bno055_address: int = 0x28
+    port: str | None = None
+    baudrate: int | None = None
+    imu_mode: str = "NDOF"
+    calibration: Path | None = None
+    read_timeout_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        _choice("sensor.backend", self.backend, SENSOR_BACKENDS)
+        set_(self, "bus", _integer("sensor.bus", self.bus, 0))
+        set_(self, "bmp280_address", _address("sensor.bmp280_address", self.bmp280_address, BMP280_ADDRESSES,
+                                              "0x76 with SDO to GND, 0x77 with SDO to VDDIO"))
+        set_(self, "bno055_address", _address("sensor.bno055_address", self.bno055_address, BNO055_ADDRESSES,
+                                              "0x28 with COM3 low, 0x29 with COM3 high"))
+        set_(self, "port", _port("sensor.port", self.port))
+        if self.backend in ("uart", "mcu") and self.port is None:
+            raise _fail("sensor.port", f"required when sensor.backend = {self.backend!r}")
+        if self.baudrate is None:
+            set_(self, "baudrate", MCU_DEFAULT_BAUD if self.backend == "mcu" else BNO055_UART_BAUD)
+        set_(self, "baudrate", _integer("sensor.baudrate", self.baudrate, 1))
+        _choice("sensor.imu_mode", self.imu_mode, FUSION_MODES)
+        if self.calibration is not None:
+            if not isinstance(self.calibration, (str, Path)) or not str(self.calibration):
+                raise _fail("sensor.calibration", f"expected a file path, got {self.calibration!r}")
+            set_(self, "calibration", Path(self.calibration))
+        set_(self, "read_timeout_s", _positive("sensor.read_timeout_s", self.read_timeout_s))
+
+
+@dataclass(frozen=True)
+class BackendConfig:
+    """The whole configuration.
+
+    Attributes
+    ----------
+    robot : RobotConfig
+    sensor : SensorConfig
+    source : Path or None
+        The file it was read from.
+    """
+
+    robot: RobotConfig = field(default_factory=RobotConfig)
+    sensor: SensorConfig = field(default_factory=SensorConfig)
+    source: Path | None = None
+
+
+_SECTIONS = {"robot": RobotConfig, "sensor": SensorConfig}
+
+
+def config_from_dict(data: Any, base_dir: str | Path | None = None, source: Path | None = None) -> BackendConfig:
+    """Check ``data`` (the parsed file) and build the config.
+
+    Relative ``sensor.calibration`` paths are resolved against ``base_dir``. Missing sections
+    and keys take their defaults; unknown ones are errors.
+    """
+    if not isinstance(data, dict):
+        raise ValueError(f"a configuration must be a table/object with [robot] and [sensor], got {type(data).__name__}")
+    _reject_unknown("", data, _SECTIONS)
+    sections = {}
+    for name, cls in _SECTIONS.items():
+        section = data.get(name, {})
+        if not isinstance(section, dict):
+            raise _fail(name, f"must be a table of keys, got {section!r}")
+        _reject_unknown(f"{name}.", section, {f.name for f in fields(cls)})
+        sections[name] = cls(**section)
+    sensor = sections["sensor"]
+    if sensor.calibration is not None and not sensor.calibration.is_absolute() and base_dir is not None:
+        sensor = _replace(sensor, calibration=Path(base_dir) / sensor.calibration)
+    return BackendConfig(robot=sections["robot"], sensor=sensor, source=source)
+
+
+def _replace(config: SensorConfig, **changes) -> SensorConfig:
+    values = {f.name: getattr(config, f.name) for f in fields(config)}
+    values.update(changes)
+    return SensorConfig(**values)
+
+
+def _reject_unknown(prefix: str, data: dict, known) -> None:
+    for key in data:
+        if key not in known:
+            close = difflib.get_close_matches(str(key), list(known), n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else f"; known: {', '.join(sorted(known))}"
+            raise ValueError(f"{prefix}{key}: unknown key{hint}")
+
+
+def load_config(path: str | Path) -> BackendConfig:
+    """Read a ``.toml`` or ``.json`` configuration file."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise FileNotFoundError(f"configuration file not found: {path}") from None
+    suffix = path.suffix.lower()
+    if suffix == ".json":
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as error:
+            raise ValueError(f"{path} is not valid JSON: {error}") from None
+    elif suffix == ".toml":
+        data = _parse_toml(text, path)
+    else:
+        raise ValueError(f"{path}: configuration files must end in .toml or .json, not {suffix!r}")
+    try:
+        return config_from_dict(data, base_dir=path.resolve().parent, source=path)
+    except ValueError as error:
+        raise ValueError(f"{path}: {error}") from None
+
+
+def _parse_toml(text: str, path: Path) -> dict:
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover - python 3.10
+        try:
+            import tomli as tomllib
+        except ImportError:
+            raise ImportError("reading TOML on Python 3.10 needs tomli (pip install tomli), or use a .json "
+                              "configuration") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise ValueError(f"{path} is not valid TOML: {error}") from None
+
+
+def load_calibration(config: SensorConfig):
+    """The :class:`sensor.calibration.SensorCalibration` the config refers to, or None."""
+    if config.calibration is None:
+        return None
+    from sensor.calibration import SensorCalibration
+    return SensorCalibration.load(config.calibration)
+
+
+# ---- opening devices -----------------------------------------------------------------------
+
+@contextlib.contextmanager
+def open_robot(config: RobotConfig, *, clock: Callable[[], float] = time.monotonic,
+               sleep: Callable[[float], None] = time.sleep) -> Iterator[Any]:
+    """Open the hardware arm of ``config`` (``backend = "serial"``); yields a :class:`robots.interface.Robot`."""
+    if config.backend != "serial":
+        raise ValueError(f"robot.backend = {config.backend!r} is not a hardware backend: use open_backends() "
+                         f"with a sim_builder for the simulation")
+    from robots.hardware import SerialArm
+    arm = SerialArm(config.port, config.spec, baudrate=config.baudrate, reply_timeout_s=config.reply_timeout_s,
+                    attempts=config.attempts, control_rate_hz=config.control_rate_hz, clock=clock, sleep=sleep)
+    with arm:
+        yield arm
+
+
+@contextlib.contextmanager
+def open_sensor(config: SensorConfig, *, clock: Callable[[], float] = time.monotonic,
+                sleep: Callable[[float], None] = time.sleep,
+                open_i2c_bus: Callable[[int], Any] | None = None) -> Iterator[Any]:
+    """Open the hardware (or emulated) sensor of ``config``; yields an open :class:`sensor.interface.TactileSensor`.
+
+    ``open_i2c_bus(bus_number)`` returns an smbus2-like bus (default ``smbus2.SMBus``); the bus and
+    serial ports opened here are closed on exit.
+    """
+    if config.backend == "sim":
+        raise ValueError("sensor.backend = 'sim' is not a hardware backend: use open_backends() with a sim_builder")
+    with contextlib.ExitStack() as stack:
+        sensor = _build_sensor(config, stack, clock, sleep, open_i2c_bus)
+        stack.enter_context(sensor)
+        yield sensor
+
+
+def _build_sensor(config: SensorConfig, stack: contextlib.ExitStack, clock, sleep, open_i2c_bus):
+    from sensor.drivers import (BMP280, BNO055I2C, BNO055UART, CalibrationProfile, HardwareTactileSensor,
+                                MicrocontrollerStream, OperationMode)
+    if config.backend == "emulated":
+        from sensor.emulated_fingertip import PressScript, emulated_fingertip
+        return emulated_fingertip(PressScript.regular(20), clock=clock, sleep=sleep)
+    calibration = load_calibration(config)
+    options = dict(read_timeout_s=config.read_timeout_s, sleep=sleep)
+    if config.backend == "mcu":
+        port = stack.enter_context(contextlib.closing(_open_serial(config.port, config.baudrate)))
+        return HardwareTactileSensor.from_stream(MicrocontrollerStream(port, clock=clock), **options)
+    bus = stack.enter_context(contextlib.closing(_open_i2c(config.bus, open_i2c_bus)))
+    barometer = BMP280(bus, config.bmp280_address, sleep=sleep, clock=clock)
+    if config.backend == "i2c":
+        imu = BNO055I2C(bus, config.bno055_address, sleep=sleep, clock=clock)
+    else:
+        port = stack.enter_context(contextlib.closing(_open_serial(config.port, config.baudrate)))
+        imu = BNO055UART(port, sleep=sleep, clock=clock)
+    if calibration is not None and calibration.bno055_profile_hex:
+        imu.write_calibration(CalibrationProfile.from_hex(calibration.bno055_profile_hex))
+    return HardwareTactileSensor.from_chips(barometer, imu, imu_mode=OperationMode[config.imu_mode], clock=clock,
+                                            **options)
+
+
+def _open_i2c(bus_number: int, open_i2c_bus: Callable[[int], Any] | None):
+    from sensor.drivers import DeviceDisconnectedError
+    if open_i2c_bus is None:
+        try:
+            from smbus2 import SMBus
+        except ImportError as error:
+            raise ImportError("the I2C sensor backends need smbus2: pip install smbus2 (or the project's "
+                              "[hardware] extra)") from error
+        open_i2c_bus = SMBus
+    try:
+        return open_i2c_bus(bus_number)
+    except OSError as error:
+        raise DeviceDisconnectedError(f"I2C bus {bus_number}", f"cannot open /dev/i2c-{bus_number}: {error} "
+                                                               f"(I2C enabled? user in the i2c group?)") from error
+
+
+def _open_serial(port: str, baudrate: int):
+    from sensor.drivers import DeviceDisconnectedError
+    try:
+        import serial
+    except ImportError as error:
+        raise ImportError("the serial sensor backends need pyserial: pip install pyserial (or the project's "
+                          "[hardware] extra)") from error
+    if "emu://" in port:
+        from sensor.emulators import register_serial_url_handlers
+        register_serial_url_handlers()
+    try:
+        return serial.serial_for_url(port, baudrate=baudrate, timeout=0.02)
+    except (OSError, ValueError) as error:
+        raise DeviceDisconnectedError(f"serial port {port}", f"cannot open: {error}") from error
+
+
+@contextlib.contextmanager
+def open_sim_backends(config: BackendConfig, sim_builder: SimBuilder | None) -> Iterator[tuple[Any, Any]]:
+    """The simulated robot and sensor, built by ``sim_builder(config)`` (the explorer provides it)."""
+    if sim_builder is None:
+        raise NotImplementedError(
+            "backend = 'sim' is built by the explorer's simulation (explorer.simulation.build_scene): pass "
+            "open_backends(config, sim_builder=...), a callable taking the BackendConfig and returning a context "
+            "manager that yields (robot, sensor)")
+    with sim_builder(config) as (robot, sensor):
+        yield robot, sensor
+
+
+@contextlib.contextmanager
+def open_backends(config: BackendConfig, *, sim_builder: SimBuilder | None = None,
+                  clock: Callable[[], float] = time.monotonic, sleep: Callable[[float], None] = time.sleep,
+                  open_i2c_bus: Callable[[int], Any] | None = None) -> Iterator[tuple[Any, Any]]:
+    """Open the robot and the sensor of ``config``; yields ``(robot, sensor)`` and closes both on exit.
+
+    The robot is opened first and closed last. Simulation and hardware do not mix: ``"sim"`` must
+    be chosen for both or neither.
+    """
+    sim = (config.robot.backend == "sim", config.sensor.backend == "sim")
+    if any(sim):
+        if not all(sim):
+            raise ValueError(f"robot.backend = {config.robot.backend!r} and sensor.backend = "
+                             f"{config.sensor.backend!r}: the simulated robot and sensor only exist together; "
+                             f"set both to 'sim' or neither")
+        with open_sim_backends(config, sim_builder) as pair:
+            yield pair
+        return
+    with contextlib.ExitStack() as stack:
+        robot = stack.enter_context(open_robot(config.robot, clock=clock, sleep=sleep))
+        sensor = stack.enter_context(open_sensor(config.sensor, clock=clock, sleep=sleep,
+                                                 open_i2c_bus=open_i2c_bus))
+        yield robot, sensor
