@@ -91,13 +91,14 @@ class SensorMonitor:
 
     def poll(self) -> list[MonitorSample]:
         """Process every reading since the previous poll; returns their samples, oldest first."""
-        samples = [self._sample(reading) for reading in self.sensor.drain()]
+        samples = [self.process(reading) for reading in self.sensor.drain()]
         for sample in samples:
             for recorder in self.recorders:
                 recorder.write(sample)
         return samples
 
-    def _sample(self, reading: Reading) -> MonitorSample:
+    def process(self, reading: Reading) -> MonitorSample:
+        """Feed one reading (time order) to the detector; its sample (recorders are not called)."""
         event = self.detector.update(reading)
         baseline = float(self.detector.baseline_pa)
         self.n_readings += 1

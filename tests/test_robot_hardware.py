@@ -158,6 +158,13 @@ def test_open_checks_the_controller_dof(spec):
         arm.open()
 
 
+def test_a_port_without_read_timeout_is_refused(rig, spec):
+    arm, controller, port, clock = rig
+    port.timeout = None
+    with pytest.raises(ValueError, match="no read timeout"):
+        arm.open()
+
+
 def test_move_joints_reaches_the_target_at_the_requested_speed(rig, spec):
     arm, controller, port, clock = rig
     target = _delta(spec)

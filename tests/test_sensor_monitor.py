@@ -66,7 +66,7 @@ def test_face_normal_uses_the_alignment():
     assert pressed.in_contact
     assert pressed.tilt_deg == pytest.approx(math.degrees(MOUNTING.magnitude()), abs=1.0)
     aligned = SensorMonitor(sensor, alignment=ImuAlignment(body_in_imu_wxyz=tuple(wxyz_from_rotation(MOUNTING))))
-    corrected = aligned._sample(pressed.reading)
+    corrected = aligned.process(pressed.reading)
     assert corrected.tilt_deg < 1.0  # the press's residual tilt only
     expected = -rotation_from_wxyz(pressed.reading.quat_wxyz).apply([0.0, 0.0, 1.0])
     np.testing.assert_allclose(pressed.face_normal, expected, atol=1e-12)

@@ -3,7 +3,7 @@
 Every error names the device (``"arm on /dev/ttyUSB0"``) and what happened; an error raised while
 the arm was moving also says during which call and what became of the STOP sent afterwards, e.g.
 ``arm on /dev/ttyUSB0: no encoder reply for 0.20 s (4 attempts) during guarded_move; STOP could
-not be confirmed: no reply``.
+not be confirmed (no STOP reply for 0.20 s (4 attempts))``.
 """
 from __future__ import annotations
 

@@ -14,7 +14,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from robots.hardware.errors import (RobotCommandError, RobotConnectionError, RobotFaultError,
+from robots.hardware.errors import (RobotCommandError, RobotConnectionError, RobotFaultError, RobotHardwareError,
                                     RobotNotOpenError, RobotProtocolError, RobotWatchdogError)
 from robots.hardware.joint_interface import EncoderReading, JointInterface
 from robots.hardware.protocol import (MAX_FRAME_BYTES, SEQ_MODULO, AckReply, Command, ControllerStatus, EncoderReply,
@@ -139,6 +139,9 @@ class SerialJointInterface(JointInterface):
         """
         if self.is_open:
             return
+        if not isinstance(self._port_spec, str) and getattr(self._port_spec, "timeout", 0.0) is None:
+            raise ValueError(f"{self.device}: the port has no read timeout (timeout=None blocks for ever when the "
+                             f"controller is silent); open it with e.g. timeout=0.01")
         self._port, self._owns_port = self._open_port(), isinstance(self._port_spec, str)
         self.stats = LinkStats()
         self._rx.clear()
@@ -162,7 +165,7 @@ class SerialJointInterface(JointInterface):
             return
         try:
             self.stop()
-        except (RobotConnectionError, RobotProtocolError, RobotFaultError, RobotCommandError):
+        except RobotHardwareError:
             pass  # closing must not fail because the controller is gone; its watchdog holds the arm
         finally:
             self._release_port()
