@@ -1,5 +1,6 @@
 """Normal, force and contact point of a confirmed contact: closed forms and an end-to-end press."""
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -11,9 +12,10 @@ from sensor.normal_estimation import (ImuAlignment, OrientationNotSettledError, 
 from sensor.oriented_contact import OrientedContact
 from sensor.pad_state import PadState
 from sensor.reading import Reading
+from sensor.sim.bno055 import BNO055Config, BNO055Noise
 from sensor.sim.pad_response import PadResponse
 from sensor.sim.quaternion import rotation_from_wxyz, wxyz_from_rotation
-from sensor.sim_sensor import SimulatedTactileSensor
+from sensor.sim_sensor import SimulatedSensorConfig, SimulatedTactileSensor
 
 BASELINE = 101325.0
 
@@ -124,7 +126,10 @@ def test_end_to_end_noisy_press_on_a_tilted_surface():
     face_down = Rotation.from_rotvec([math.pi - tilt, 0.0, 0.0])  # pad +z into the surface
     np.testing.assert_allclose(-face_down.apply([0, 0, 1]), surface_normal, atol=1e-12)
     quat = wxyz_from_rotation(face_down)
-    sensor, detector = SimulatedTactileSensor(seed=11), PressureContactDetector()
+    # mounting misalignment off: a calibrated sensor (ImuAlignment removes it on hardware)
+    calibrated = BNO055Config(noise=replace(BNO055Noise(), mounting_misalignment_std_rad=0.0))
+    sensor = SimulatedTactileSensor(config=SimulatedSensorConfig(imu=calibrated), seed=11)
+    detector = PressureContactDetector()
     contact_readings, start = [], None
     with sensor:
         for t in np.arange(0.0, 3.0, 1.0 / 240.0):

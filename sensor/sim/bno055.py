@@ -20,7 +20,15 @@ from the sensor figures above and stated assumptions:
   0.014 deg/sqrt(s), as in IMU mode where nothing observes heading;
 - tilt (about the world horizontal axes) has a slowly varying bias bounded by gravity: an
   Ornstein-Uhlenbeck process whose RMS equals the residual accelerometer bias / g (assumed 0.02 m/s^2
-  after calibration, i.e. 0.12 deg) with an assumed 60 s correlation time.
+  after calibration, i.e. 0.12 deg) with an assumed 60 s correlation time;
+- the chip is not mounted exactly parallel to the pad face: a constant rotation between the sensor
+  body frame (the pad face) and the chip's axes, drawn at power-on, 1 deg RMS per axis by default.
+  It is an assembly tolerance, not a chip figure: solder-joint height differences under the 3.8 mm
+  LGA package (~20 um, 0.3 deg), the sensing elements' alignment in the package (cross-axis
+  sensitivity of about 1 %, 0.6 deg) and the hand-cast 3.7 mm polyurethane pad, whose face is
+  parallel to the PCB only to ~0.25 mm across 18 mm (0.8 deg); root-sum-square about 1 deg.
+  Calibration removes it on hardware (``sensor.normal_estimation.ImuAlignment.body_in_imu_wxyz``);
+  an uncalibrated sensor reads every surface normal tilted by it.
 
 Output conventions follow the chip: the quaternion rotates sensor-frame vectors into the world frame;
 gravity is what the accelerometer reads at rest, +9.81 m/s^2 along the world's up axis, expressed in
@@ -53,6 +61,7 @@ QUATERNION_LSB = 2.0**-14
 ACCELERATION_LSB_MPS2 = 0.01
 
 _ASSUMED_ACCEL_BIAS_MPS2 = 0.02
+_ASSUMED_MOUNTING_MISALIGNMENT_RAD = math.radians(1.0)
 
 
 @dataclass(frozen=True)
@@ -74,6 +83,9 @@ class BNO055Noise:
         Stationary RMS per horizontal world axis of the slowly varying tilt bias, radians.
     tilt_bias_time_constant_s : float
         Correlation time of the tilt bias, seconds.
+    mounting_misalignment_std_rad : float
+        RMS per axis of the constant rotation from the sensor body (pad face) frame to the chip's
+        axes, drawn at power-on, radians (module docstring: assembly tolerances, ~1 deg).
     """
 
     accel_noise_density_mps2_per_sqrt_hz: float = ACCEL_NOISE_DENSITY_MPS2_PER_SQRT_HZ
@@ -83,6 +95,7 @@ class BNO055Noise:
     yaw_random_walk_rad_per_sqrt_s: float = GYRO_NOISE_DENSITY_RADPS_PER_SQRT_HZ
     tilt_bias_std_rad: float = _ASSUMED_ACCEL_BIAS_MPS2 / STANDARD_GRAVITY_MPS2
     tilt_bias_time_constant_s: float = 60.0
+    mounting_misalignment_std_rad: float = _ASSUMED_MOUNTING_MISALIGNMENT_RAD
 
     def __post_init__(self) -> None:
         for name, value in vars(self).items():
@@ -93,8 +106,9 @@ class BNO055Noise:
 
     @classmethod
     def off(cls) -> "BNO055Noise":
-        """No noise, bias or drift."""
-        return cls(0.0, 0.0, 0.0, 0.0, 0.0)
+        """No noise, bias, drift or mounting misalignment."""
+        return cls(accel_noise_density_mps2_per_sqrt_hz=0.0, accel_bias_std_mps2=0.0, orientation_white_std_rad=0.0,
+                   yaw_random_walk_rad_per_sqrt_s=0.0, tilt_bias_std_rad=0.0, mounting_misalignment_std_rad=0.0)
 
 
 @dataclass(frozen=True)
@@ -172,6 +186,12 @@ class SimulatedBNO055:
         Chip settings.
     rng : numpy.random.Generator
         Source of all randomness of this chip.
+
+    Attributes
+    ----------
+    mounting : scipy.spatial.transform.Rotation
+        The chip's axes in the sensor body frame, drawn at power-on (identity without
+        misalignment): the chip measures the orientation of ``R_body * mounting``.
     """
 
     def __init__(self, config: BNO055Config, rng: np.random.Generator) -> None:
@@ -181,6 +201,7 @@ class SimulatedBNO055:
         noise = config.noise
         self._accel_bias_mps2 = noise.accel_bias_std_mps2 * rng.standard_normal(3)
         self._tilt_bias_rad = noise.tilt_bias_std_rad * rng.standard_normal(2)
+        self.mounting = Rotation.from_rotvec(noise.mounting_misalignment_std_rad * rng.standard_normal(3))
         self._yaw_bias_rad = 0.0
         self._last_t: float | None = None
         self._last_velocity_mps: np.ndarray | None = None
@@ -203,10 +224,10 @@ class SimulatedBNO055:
         self._last_t = t
         self._last_velocity_mps = velocity
 
-        true_rotation = rotation_from_wxyz(pad_state.quat_wxyz)
-        measured_rotation = self._orientation_error_world() * true_rotation * self._orientation_error_body()
+        chip_rotation = rotation_from_wxyz(pad_state.quat_wxyz) * self.mounting
+        measured_rotation = self._orientation_error_world() * chip_rotation * self._orientation_error_body()
         up = np.array([0.0, 0.0, self.config.gravity_mps2])
-        specific_force = true_rotation.inv().apply(acceleration_world + up)
+        specific_force = chip_rotation.inv().apply(acceleration_world + up)
         specific_force += self._accel_bias_mps2 + self.config.accel_noise_std_mps2 * self._rng.standard_normal(3)
         gravity = measured_rotation.inv().apply(up)
         lin_acc = specific_force - gravity
