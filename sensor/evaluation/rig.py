@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robots.fingertip import FingertipGeometry
+from robots.spec import RobotSpec
 
 MAX_JOINT_STEP_RAD_PER_M = 50.0
 """Neighbouring IK waypoints further apart than this (rad of the fastest joint per metre of pad
@@ -70,13 +71,13 @@ class PressRig:
 
     Attributes
     ----------
-    spec : robots.RobotSpec
+    spec : RobotSpec
     line : ApproachLine
     pad_width_m : float
         Side of the square pad face, metres.
     """
 
-    spec: object
+    spec: RobotSpec
     line: ApproachLine
     pad_width_m: float
 

@@ -268,6 +268,10 @@ def run_press(rig: PressRig, model: ObjectModel, spec: PressSpec, sensors: Mappi
     if spec.object_name != model.name:
         raise ValueError(f"press spec is for {spec.object_name!r} but the model is {model.name!r}")
     line = rig.line
+    if protocol.gap_m + protocol.max_press_travel_m > line.depths_m[-1]:
+        raise ValueError(f"PressProtocol gap_m + max_press_travel_m = "
+                         f"{(protocol.gap_m + protocol.max_press_travel_m) * 1e3:.1f} mm goes past the rig's approach "
+                         f"path ({line.depths_m[-1] * 1e3:.1f} mm); build the rig with a larger max_depth_m")
     normal = tilted_normal(line.direction, spec.tilt_rad, spec.azimuth_rad)
     pose = pose_for_contact(spec.site, line.start_m + protocol.gap_m * line.direction, normal, spec.spin_rad)
     gap = free_gap_m(model, pose, line.face_points_m(rig.pad_width_m), line.direction)
@@ -286,10 +290,12 @@ def run_press(rig: PressRig, model: ObjectModel, spec: PressSpec, sensors: Mappi
             arm.guarded_move(line.q_rad[1:first + 1], lambda: False, speed_rad_s=protocol.transfer_speed_rad_s)
         slow = line.joint_speed_rad_s(protocol.approach_speed_mps)
         approach = arm.guarded_move(line.q_rad[first + 1:], guard.in_contact, speed_rad_s=slow)
-        reached = approach.waypoint_index + first + 1
+        heading_to = approach.waypoint_index + first + 1  # the arm stopped short of this waypoint
         if approach.stopped:
-            last = line.index_before(line.depths_m[reached] + protocol.max_press_travel_m)
-            arm.guarded_move(line.q_rad[reached:last + 1], guard.force_reached(spec.target_force_n), speed_rad_s=slow)
+            last = line.index_before(line.depths_m[heading_to] + protocol.max_press_travel_m)
+            press = arm.guarded_move(line.q_rad[heading_to:last + 1], guard.force_reached(spec.target_force_n),
+                                     speed_rad_s=slow)
+            heading_to += press.waypoint_index
         hold_start = world.time_s
         forces_before = len(recorder.forces)
         _steps(world, protocol.hold_s)
@@ -302,7 +308,8 @@ def run_press(rig: PressRig, model: ObjectModel, spec: PressSpec, sensors: Mappi
             hold_end_s=world.time_s, held_force_n=float(held[len(held) // 2:].mean()),
             body_misalignment_rad=float(angle_between_vectors(body_axis, -normal)), other_links_touching=touching,
         )
-        arm.guarded_move(line.q_rad[:reached + 1][::-1], lambda: False, speed_rad_s=protocol.transfer_speed_rad_s)
+        behind = max(heading_to - 1, 0)  # retreat from the waypoint behind the pad, never into the surface
+        arm.guarded_move(line.q_rad[:behind + 1][::-1], lambda: False, speed_rad_s=protocol.transfer_speed_rad_s)
         _steps(world, protocol.release_s)
         return recorder.recording("press", outcome, world.time_s, time.perf_counter() - started)
 
