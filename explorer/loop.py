@@ -28,8 +28,9 @@ import numpy as np
 from explorer.planner import ApproachPlan, ApproachPlanner
 from explorer.positioner import Positioner
 from explorer.strategies import ExplorationState, TouchStrategy
-from explorer.touch import ObjectPrior
+from explorer.touch import ObjectPrior, Touch
 from reconstruction.gpis import GPIS
+from robots.interface import MoveNotReachedError
 from sensor.contact_detection import PressureContactDetector
 from sensor.normal_estimation import (OrientationNotSettledError, SettlingConfig, estimate_normal,
                                        oriented_contact)
@@ -51,13 +52,16 @@ class LoopConfig:
         Pad speed along the approach line (the detector needs about 50 ms to confirm a contact,
         so this sets the overshoot: 0.5 mm at 1 cm/s).
     press_speed_mps : float
-        Pad speed while pressing on after the contact, waiting for the spring to align the pad.
+        Pad speed while pressing on after the contact.
     transfer_speed_rad_s : float
         Joint speed of free moves.
     press_depth_m : float
         Extra travel after the contact is confirmed, at most.
     press_force_n : float
-        The press ends once the force estimate reaches this and the orientation has settled.
+        The press ends once the force estimate reaches this (or after ``press_depth_m``).
+    settle_timeout_s : float
+        After the press the arm holds until the IMU orientation has settled (the spring has
+        aligned the pad), at most this long.
     candidates : int
         Touches requested from the strategy per step (tried in order until one is reachable).
     free_space_value : float
@@ -70,20 +74,29 @@ class LoopConfig:
     pad_compliance_m_per_n : float
         Pad compression per newton (calibration of the sensor's pad): the pad face is pressed
         ``force x compliance`` into the surface, so the contact point is moved back out by that.
+    realign_angle_rad : float
+        When the measured normal differs from the approach by more than this, the pad may have
+        stuck before aligning (friction at its edge): the contact is not used and the next touch
+        repeats it along the measured normal ("realign").
+    max_realigns : int
+        Realign touches in a row at most; the last contact is then used as measured.
     """
 
     touches: int = 50
     variance_threshold: float | None = None
     approach_speed_mps: float = 0.01
-    press_speed_mps: float = 0.001
+    press_speed_mps: float = 0.005
     transfer_speed_rad_s: float = 1.0
     press_depth_m: float = 0.002
-    press_force_n: float = 0.8
+    press_force_n: float = 1.5
+    settle_timeout_s: float = 1.0
     candidates: int = 6
     free_space_value: float = -0.009
     free_space_noise: float = 0.005
     max_unreachable_in_a_row: int = 5
     pad_compliance_m_per_n: float = 1.0 / 3.0e3
+    realign_angle_rad: float = np.radians(12.0)
+    max_realigns: int = 2
 
 
 @dataclass
@@ -91,7 +104,7 @@ class TouchRecord:
     """What happened on one touch (object frame unless stated)."""
 
     index: int
-    kind: str  # "contact" | "miss" | "unreachable" | "no_normal"
+    kind: str  # "contact" | "realign" | "miss" | "unreachable" | "blocked" | "no_normal"
     target_m: np.ndarray
     approach_dir: np.ndarray
     stand_yaw_rad: float = 0.0
@@ -160,14 +173,15 @@ class ExplorationLoop:
         self.config = config
         self.recorder = recorder or Recorder()
         self.detector = detector or PressureContactDetector()
-        self.settling = settling or SettlingConfig()
+        self.settling = settling or SettlingConfig(settle_window_s=0.15, max_deviation_rad=np.radians(0.5))
         self.state = ExplorationState(prior)
         self.records: list[TouchRecord] = []
         self.times = PhaseTimes()
         self._contact_readings: list[Reading] = []
         self._pending_free_space: list[np.ndarray] = []
         self._baseline_pa: float | None = None
-        self._last_force_n = 0.0
+        self._follow_up: Touch | None = None
+        self._realigns = 0
 
     # ------------------------------------------------------------------ public
     @property
@@ -195,6 +209,9 @@ class ExplorationLoop:
         t0 = time.perf_counter()
         self.state.gpis = self.gpis if self.gpis.n_contacts else None
         proposals = self.strategy.propose(self.state, self.config.candidates)
+        if self._follow_up is not None:
+            proposals = [self._follow_up] + proposals
+            self._follow_up = None
         t1 = time.perf_counter()
         self.times.selection_s += t1 - t0
         plan = None
@@ -213,7 +230,7 @@ class ExplorationLoop:
                                  np.zeros(3) if touch is None else touch.approach_dir,
                                  t_s=self.robot.time_s())
             return self._finish(record)
-        if hasattr(self.strategy, "accepted"):
+        if hasattr(self.strategy, "accepted") and plan.touch.strategy != "realign":
             self.strategy.accepted(plan.touch)
         self.state.tried_m.append(plan.touch.target_m)
         return self._finish(self._execute(plan, index))
@@ -225,7 +242,11 @@ class ExplorationLoop:
         if plan.stand != self.positioner.pose():
             self.robot.move_joints(self.planner.rest_q, cfg.transfer_speed_rad_s)
             self.positioner.move_to(plan.stand)
-        self.robot.move_joints(plan.standoff_q, cfg.transfer_speed_rad_s)
+        if not self._transfer(plan.standoff_q):
+            self.state.unreachable_m.append(plan.touch.target_m)
+            self.times.simulation_s += time.perf_counter() - t0
+            return TouchRecord(index, "blocked", plan.touch.target_m, plan.touch.approach_dir,
+                               plan.stand.yaw_rad, plan.stand.flip_rad, t_s=self.robot.time_s())
         self._poll()
         self.detector.reset()
         self._contact_readings = []
@@ -237,17 +258,53 @@ class ExplorationLoop:
         if approach.stopped:
             start_pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
             remaining = plan.path_q[min(approach.waypoint_index + 1, len(plan.path_q) - 1):]
-            self.robot.guarded_move(remaining, stop=lambda: self._press_done(start_pad),
+            self.robot.guarded_move(remaining, stop=lambda: self._pressed(start_pad),
                                     speed_rad_s=speed * cfg.press_speed_mps / cfg.approach_speed_mps)
+            self.robot.hold(cfg.settle_timeout_s, stop=self._settled_now)
             record = self._contact_record(record)
-        self.robot.move_joints(plan.standoff_q, cfg.transfer_speed_rad_s)
+        self._retract(plan)
         self._poll()
         self.times.simulation_s += time.perf_counter() - t0
+        if record.kind == "contact" and self._needs_realign(record):
+            record.kind = "realign"
+            self._realigns += 1
+            self._follow_up = Touch(record.position_m, -record.normal, strategy="realign",
+                                    depth_m=self.planner.config.depth_m)
+        elif record.kind == "contact":
+            self._realigns = 0
         if record.kind == "contact":
             self._update_gpis(record.position_m, record.normal)
         elif record.kind == "miss":
             self._add_free_space(plan)
         return record
+
+    def _transfer(self, q: np.ndarray) -> bool:
+        """Free move to ``q``, via the rest pose when the straight joint path is blocked.
+
+        Returns False (arm back at rest) when ``q`` itself cannot be reached: the arm would
+        touch the object there (the planner checks only the arm up to the wrist).
+        """
+        speed = self.config.transfer_speed_rad_s
+        for attempt in ("direct", "via rest"):
+            try:
+                if attempt == "via rest":
+                    self.robot.move_joints(self.planner.rest_q, speed)
+                self.robot.move_joints(q, speed)
+                return True
+            except MoveNotReachedError as err:
+                self.recorder.event("transfer_blocked", self.robot.time_s(), message=f"{attempt}: {err}")
+        self.robot.move_joints(self.planner.rest_q, speed)
+        return False
+
+    def _retract(self, plan: ApproachPlan) -> None:
+        """Back to the standoff; if a contact blocks the direct move, back out along the path."""
+        speed = self.config.transfer_speed_rad_s
+        try:
+            self.robot.move_joints(plan.standoff_q, speed)
+        except MoveNotReachedError as err:
+            self.recorder.event("retract_blocked", self.robot.time_s(), message=str(err))
+            self.robot.guarded_move(plan.path_q[::-1], stop=lambda: False, speed_rad_s=0.2 * speed)
+            self.robot.move_joints(self.planner.rest_q, speed)
 
     def _contact_record(self, record: TouchRecord) -> TouchRecord:
         q = self.robot.joint_positions()
@@ -267,6 +324,13 @@ class ExplorationLoop:
         record.normal = n_obj[0] / np.linalg.norm(n_obj[0])
         record.t_s = contact.t_s
         return record
+
+    def _needs_realign(self, record: TouchRecord) -> bool:
+        if self._realigns >= self.config.max_realigns:
+            self._realigns = 0
+            return False
+        cos = float(np.dot(record.normal, -record.approach_dir))
+        return cos < np.cos(self.config.realign_angle_rad)
 
     def _finish(self, record: TouchRecord) -> TouchRecord:
         self.records.append(record)
@@ -294,32 +358,39 @@ class ExplorationLoop:
                 self._contact_readings.append(reading)
         return started
 
-    def _press_done(self, start_pad_m: np.ndarray) -> bool:
-        readings = self._poll()
-        for reading in readings:
+    def _collect(self) -> None:
+        for reading in self._poll():
             self.detector.update(reading)
             self._contact_readings.append(reading)
+
+    def _pressed(self, start_pad_m: np.ndarray) -> bool:
+        """The press has reached its force, or its depth."""
+        self._collect()
         if not self._contact_readings:
             return False
         rise = self._contact_readings[-1].pressure_pa - (self._baseline_pa or 0.0)
         pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
         travelled = float(np.linalg.norm(pad - start_pad_m))
-        pressed = self._force_from_rise(rise) >= self.config.press_force_n
-        return travelled >= self.config.press_depth_m or (pressed and self._settled())
+        return travelled >= self.config.press_depth_m or self._force_from_rise(rise) >= self.config.press_force_n
+
+    def _settled_now(self) -> bool:
+        """The orientation over the latest settling window is steady."""
+        self._collect()
+        window = self.settling.settle_window_s
+        if not self._contact_readings or self._contact_readings[-1].t_s - self._contact_readings[0].t_s < window:
+            return False
+        recent = [r for r in self._contact_readings if r.t_s >= self._contact_readings[-1].t_s - window]
+        try:
+            estimate_normal(recent, self._baseline_pa, settling=self.settling)
+        except (OrientationNotSettledError, ValueError):
+            return False
+        return True
 
     def _force_from_rise(self, rise_pa: float) -> float:
         from sensor.sim.pad_response import PadResponse
 
         pad = PadResponse()
         return pad.force_n(min(max(rise_pa, 0.0), 0.999 * pad.saturation_pa))
-
-    def _settled(self) -> bool:
-        """The same test the normal estimate applies: a settled window exists in the readings."""
-        try:
-            estimate_normal(self._contact_readings, self._baseline_pa, settling=self.settling)
-        except (OrientationNotSettledError, ValueError):
-            return False
-        return True
 
     # ------------------------------------------------------------------ model updates
     def _update_gpis(self, point: np.ndarray, normal: np.ndarray) -> None:

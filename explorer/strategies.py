@@ -159,13 +159,16 @@ class VarianceStrategy(TouchStrategy):
     min_gradient : float
         Below this gradient magnitude (about 1 on an observed surface) the approach aims at the
         prior centre instead of along the gradient.
+    shortlist : int
+        Highest-variance candidates projected onto the surface and checked per proposal.
     """
 
     name = "variance"
 
     def __init__(self, grid: int = 24, initial_touches: int = 6, separation_m: float = 0.015,
-                 avoid_radius_m: float = 0.01, min_gradient: float = 0.5):
+                 avoid_radius_m: float = 0.01, min_gradient: float = 0.5, shortlist: int = 400):
         self.grid = grid
+        self.shortlist = shortlist
         self.min_gradient = min_gradient
         self.initial_touches = initial_touches
         self.separation_m = separation_m
@@ -205,31 +208,32 @@ class VarianceStrategy(TouchStrategy):
         if gp is None or gp.n_contacts < self.initial_touches or state.touches < self.initial_touches:
             return self._uniform.propose(state, count)
         points, variance = self.surface_variance(state)
-        keep = _not_near(points, state.unreachable_m + state.tried_m, self.avoid_radius_m)
-        points, variance = points[keep], variance[keep]
-        order = np.argsort(-variance)
-        chosen: list[int] = []
-        for i in order:
-            if all(np.linalg.norm(points[i] - points[j]) >= self.separation_m for j in chosen):
-                chosen.append(int(i))
-            if len(chosen) == count:
+        order = np.argsort(-variance)[:self.shortlist]
+        candidates = points[order]
+        grads = gp.gradient(candidates).astype(float)
+        values = gp.mean(candidates).astype(float)
+        norms = np.linalg.norm(grads, axis=1)
+        surface_like = norms >= self.min_gradient
+        safe = np.where(surface_like, norms, 1.0)
+        # Where a surface is taking shape: one Newton step onto f = 0 and approach along the
+        # inward normal. Far from data the mean fades to 0 and its gradient says nothing: aim at
+        # the prior centre from the candidate instead.
+        targets = np.where(surface_like[:, None], candidates - (values / safe**2)[:, None] * grads,
+                           candidates)
+        towards = state.prior.centre_m - candidates
+        approach = np.where(surface_like[:, None], grads / safe[:, None], towards)
+        avoid = state.unreachable_m + state.tried_m
+        keep = _not_near(targets, avoid, self.avoid_radius_m)
+        touches: list[Touch] = []
+        for i in np.flatnonzero(keep):
+            if any(np.linalg.norm(targets[i] - t.target_m) < self.separation_m for t in touches):
+                continue
+            if np.linalg.norm(approach[i]) < 1e-9:
+                continue
+            touches.append(Touch(targets[i], approach[i], float(variance[order[i]]), self.name))
+            if len(touches) == count:
                 break
-        if not chosen:
-            return self._uniform.propose(state, count)
-        grads = gp.gradient(points[chosen]).astype(float)
-        values = gp.mean(points[chosen]).astype(float)
-        touches = []
-        for i, g, f in zip(chosen, grads, values):
-            norm = np.linalg.norm(g)
-            if norm >= self.min_gradient:
-                # A surface is taking shape here: one Newton step onto f = 0, approach along it.
-                touches.append(Touch(points[i] - f * g / norm**2, g / norm, float(variance[i]),
-                                     self.name))
-            else:
-                # Far from data the mean fades to 0 and its gradient says nothing: aim at the centre.
-                towards = state.prior.centre_m - points[i]
-                touches.append(Touch(points[i], towards, float(variance[i]), self.name))
-        return touches
+        return touches or self._uniform.propose(state, count)
 
 
 STRATEGIES = {"uniform": UniformStrategy, "random": RandomStrategy, "variance": VarianceStrategy}

@@ -30,7 +30,7 @@ _LAZY = {
     "SimArm": "robots.sim_arm",
     "EncoderModel": "robots.sim_arm",
     "ArmContact": "robots.sim_arm",
-    "MoveNotReachedError": "robots.sim_arm",
+    "MoveNotReachedError": "robots.interface",
 }
 
 __all__ = ["RobotRegistry", "RobotSpec", "load", "names", "register", *_LAZY]

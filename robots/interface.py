@@ -8,6 +8,10 @@ from typing import Callable
 import numpy as np
 
 
+class MoveNotReachedError(RuntimeError):
+    """A move ended away from its target (blocked by a contact, or too slow to settle)."""
+
+
 @dataclass(frozen=True)
 class GuardedMoveResult:
     """Outcome of :meth:`Robot.guarded_move`.
@@ -50,6 +54,14 @@ class Robot(abc.ABC):
         """Follow ``path`` ((k, dof) radians), calling ``stop()`` every control tick.
 
         Halts (holding position) as soon as ``stop()`` returns True.
+        """
+
+    @abc.abstractmethod
+    def hold(self, duration_s: float, stop: Callable[[], bool] | None = None) -> GuardedMoveResult:
+        """Keep the current position for ``duration_s`` seconds, calling ``stop()`` every tick.
+
+        Returns early (``stopped=True``) when ``stop()`` returns True. The exploration loop holds
+        a press this way while the spring aligns the pad.
         """
 
     @abc.abstractmethod

@@ -15,7 +15,7 @@ from typing import Callable
 
 import numpy as np
 
-from robots.interface import GuardedMoveResult, Robot
+from robots.interface import GuardedMoveResult, MoveNotReachedError, Robot
 from robots.pybullet_types import ContactPoint, JointInfo, JointState, LinkInertia, LinkState
 from robots.sim_world import SimWorld, import_pybullet
 from robots.spec import RobotSpec
@@ -76,9 +76,6 @@ class ArmContact:
     normal: np.ndarray
     normal_force_n: float
 
-
-class MoveNotReachedError(RuntimeError):
-    """An unguarded move ended (settle timeout) away from its target, e.g. blocked by contact."""
 
 
 class SimArm(Robot):
@@ -313,6 +310,18 @@ class SimArm(Robot):
         return self._follow(path, stop, speed_rad_s)
 
     # ---- state -------------------------------------------------------------------------------
+
+    def hold(self, duration_s: float, stop: Callable[[], bool] | None = None) -> GuardedMoveResult:
+        if not duration_s >= 0.0:
+            raise ValueError(f"duration_s must be >= 0, got {duration_s}")
+        q = self.true_joint_positions()
+        self._command(q, np.zeros(self.dof))
+        tick_s = self.control_steps * self.world.time_step_s
+        for _ in range(int(np.ceil(duration_s / tick_s))):
+            if stop is not None and stop():
+                return GuardedMoveResult(stopped=True, q=self.joint_positions(), waypoint_index=0)
+            self.world.step(self.control_steps)
+        return GuardedMoveResult(stopped=False, q=self.joint_positions(), waypoint_index=0)
 
     def link_state(self, link: str) -> LinkState:
         """Pose and velocity of an arm link's URDF frame, world frame."""

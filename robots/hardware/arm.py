@@ -20,7 +20,7 @@ from robots.hardware.errors import RobotHardwareError
 from robots.hardware.joint_interface import JointInterface
 from robots.hardware.serial_joints import LinkStats, SerialJointInterface
 from robots.interface import GuardedMoveResult, Robot
-from robots.sim_arm import MoveNotReachedError
+from robots.interface import MoveNotReachedError
 from robots.spec import RobotSpec
 from robots.urdf_check import check_spec_against_urdf
 
@@ -160,6 +160,26 @@ class HardwareArm(Robot):
         if not callable(stop):
             raise TypeError("stop must be a callable returning bool")
         return self._follow(path, stop, speed_rad_s, "guarded_move")
+
+    def hold(self, duration_s: float, stop: Callable[[], bool] | None = None) -> GuardedMoveResult:
+        """Command the current position for ``duration_s``, calling ``stop()`` each tick."""
+        if not duration_s >= 0.0:
+            raise ValueError(f"duration_s must be >= 0, got {duration_s}")
+        try:
+            q = self._encoders()
+            t0 = self.clock()
+            while self.clock() - t0 < duration_s:
+                if stop is not None and stop():
+                    return GuardedMoveResult(stopped=True, q=self._encoders(), waypoint_index=0)
+                self.joints.command(q)
+                self.sleep(self.control_period_s)
+                self._encoders()
+            return GuardedMoveResult(stopped=False, q=self._encoders(), waypoint_index=0)
+        except RobotHardwareError as error:
+            raise error.during(f"during hold; {self._stop_after_error()}") from error
+        except BaseException:
+            self._stop_after_error()
+            raise
 
     # ---- internals ---------------------------------------------------------------------------
 
