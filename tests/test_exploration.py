@@ -71,6 +71,6 @@ def test_an_interrupted_run_keeps_every_contact(tmp_path):
         explore(RunSettings(object="box", touches=10, seed=1, eval_every=0, mesh_resolution=32),
                 tmp_path, interrupt_after_three)
     points, _ = read_contacts_csv(tmp_path / "contacts.csv")
-    assert len(points) == sum(r.kind == "contact" for r in seen) >= 2
+    assert len(points) == sum(r.kind == "contact" for r in seen) >= 1
     metrics = json.loads((tmp_path / "metrics.json").read_text())
     assert metrics["completed"] is False and metrics["touches"] == 3
