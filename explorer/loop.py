@@ -76,10 +76,12 @@ class LoopConfig:
         ``force x compliance`` into the surface, so the contact point is moved back out by that.
     realign_angle_rad : float
         When the measured normal differs from the approach by more than this, the pad may have
-        stuck before aligning (friction at its edge): the contact is not used and the next touch
-        repeats it along the measured normal ("realign").
+        stuck before aligning (friction holds its leading edge on surfaces tilted 40 deg or more):
+        the contact is not used and the next touch repeats it along the measured normal
+        ("realign"), where the pad has less to turn.
     max_realigns : int
-        Realign touches in a row at most; the last contact is then used as measured.
+        Realign touches in a row at most; a contact still misaligned then is not used
+        ("unaligned").
     """
 
     touches: int = 50
@@ -104,7 +106,7 @@ class TouchRecord:
     """What happened on one touch (object frame unless stated)."""
 
     index: int
-    kind: str  # "contact" | "realign" | "miss" | "unreachable" | "blocked" | "no_normal"
+    kind: str  # contact | realign | unaligned | miss | unreachable | blocked | no_normal
     target_m: np.ndarray
     approach_dir: np.ndarray
     stand_yaw_rad: float = 0.0
@@ -265,11 +267,15 @@ class ExplorationLoop:
         self._retract(plan)
         self._poll()
         self.times.simulation_s += time.perf_counter() - t0
-        if record.kind == "contact" and self._needs_realign(record):
-            record.kind = "realign"
-            self._realigns += 1
-            self._follow_up = Touch(record.position_m, -record.normal, strategy="realign",
-                                    depth_m=self.planner.config.depth_m)
+        if record.kind == "contact" and self._misaligned(record):
+            if self._realigns < cfg.max_realigns:
+                record.kind = "realign"
+                self._realigns += 1
+                self._follow_up = Touch(record.position_m, -record.normal, strategy="realign",
+                                        depth_m=self.planner.config.depth_m)
+            else:  # the pad keeps jamming here: neither its normal nor its position is trusted
+                record.kind = "unaligned"
+                self._realigns = 0
         elif record.kind == "contact":
             self._realigns = 0
         if record.kind == "contact":
@@ -325,12 +331,9 @@ class ExplorationLoop:
         record.t_s = contact.t_s
         return record
 
-    def _needs_realign(self, record: TouchRecord) -> bool:
-        if self._realigns >= self.config.max_realigns:
-            self._realigns = 0
-            return False
-        cos = float(np.dot(record.normal, -record.approach_dir))
-        return cos < np.cos(self.config.realign_angle_rad)
+    def _misaligned(self, record: TouchRecord) -> bool:
+        """The measured normal is far from the approach: the pad may not have aligned."""
+        return float(np.dot(record.normal, -record.approach_dir)) < np.cos(self.config.realign_angle_rad)
 
     def _finish(self, record: TouchRecord) -> TouchRecord:
         self.records.append(record)
