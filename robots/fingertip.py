@@ -32,23 +32,33 @@ SENSOR_BODY_LINK = "sensor_body"
 PAD_LINK = "pad"
 SPRING_JOINTS = ("spring_x", "spring_y")
 
-DEFAULT_SPRING_STIFFNESS_NM_PER_RAD = 0.02
+DEFAULT_SPRING_STIFFNESS_NM_PER_RAD = 0.01
 """Bending stiffness of the coil spring about each axis, N m/rad: gravity sags the module by
 about 0.6 deg, and a 20-degree slope is fully aligned with under 2 N of contact force."""
 
-DEFAULT_SPRING_DAMPING_NMS_PER_RAD = 7e-5
+DEFAULT_SPRING_DAMPING_NMS_PER_RAD = 5e-5
 """Spring damping, N m s/rad: damping ratio about 0.5 with the module's 2.4e-7 kg m^2 about the
 pivot (and stable with the explicit spring update at 1/480 s steps)."""
 
 
 @dataclass(frozen=True)
 class FingertipGeometry:
-    """Dimensions (m), masses (kg) and spring limits (rad) of the fingertip module."""
+    """Dimensions (m), masses (kg) and spring limits (rad) of the fingertip module.
+
+    ``spring_gap_m`` is the distance from the spring's rotation centre (the pivot) to the back of
+    the module; negative puts the pivot inside the module's 4 mm base. A short compression spring
+    loaded off-centre turns about a point close to its end plate, and the pad can only align with
+    a slope whose contact torque about the pivot turns it the right way: with the pad's half
+    width ``w`` and the pivot ``d`` behind the face, an edge contact stops helping at
+    ``atan(w / d)`` (46 deg with the pivot behind the module, 62 deg at 3 mm inside it).
+    ``tool_to_pivot_m`` keeps the pad face where it was relative to the hand.
+    """
 
     body_width_m: float = 0.018
     module_height_m: float = 0.0077
     pad_thickness_m: float = 0.0037
-    spring_gap_m: float = 0.001
+    spring_gap_m: float = -0.003
+    tool_to_pivot_m: float = 0.004
     body_mass_kg: float = 0.004
     pad_mass_kg: float = 0.0012
     spring_part_mass_kg: float = 0.001
@@ -62,8 +72,9 @@ class FingertipGeometry:
                 f"pad thickness {self.pad_thickness_m} m must be positive and below the module "
                 f"height {self.module_height_m} m"
             )
-        if self.spring_gap_m < 0.0 or not 0.0 < self.spring_limit_rad < math.pi / 2:
-            raise ValueError("spring gap must be >= 0 and the spring limit in (0, pi/2) rad")
+        if self.spring_gap_m <= -self.base_thickness_m or not 0.0 < self.spring_limit_rad < math.pi / 2:
+            raise ValueError("the pivot must lie behind the pad (spring gap > -base thickness) and the "
+                             "spring limit in (0, pi/2) rad")
 
     @property
     def base_thickness_m(self) -> float:
@@ -105,7 +116,7 @@ def fingertip_parts(tool_link: str, geometry: FingertipGeometry = FingertipGeome
     spring = dict(kind="revolute", lower=-g.spring_limit_rad, upper=g.spring_limit_rad,
                   effort=g.spring_effort_nm, velocity=g.spring_velocity_rad_s)
     joints = (
-        Joint("tool_to_pivot", "fixed", tool_link, PIVOT_LINK),
+        Joint("tool_to_pivot", "fixed", tool_link, PIVOT_LINK, xyz=(0.0, 0.0, g.tool_to_pivot_m)),
         Joint(SPRING_JOINTS[0], parent=PIVOT_LINK, child=GIMBAL_LINK, axis=(1.0, 0.0, 0.0), **spring),
         Joint(SPRING_JOINTS[1], parent=GIMBAL_LINK, child=PLATE_LINK, axis=(0.0, 1.0, 0.0), **spring),
         Joint("plate_to_body", "fixed", PLATE_LINK, SENSOR_BODY_LINK, xyz=(0.0, 0.0, g.pivot_to_body_m)),

@@ -7,6 +7,8 @@ import numpy as np
 import pybullet
 import pytest
 
+from robots.fingertip import FingertipGeometry
+
 import robots
 from robots.kinematics import ArmKinematics
 from robots.pybullet_types import JointInfo, LinkState
@@ -136,7 +138,8 @@ def test_pad_position_from_measured_orientation(kinematics):
     naive = kinematics.pad_position_from_orientation(q, matrix_to_quat(undeflected.rotation))
     assert np.linalg.norm(naive - truth, axis=1).min() > 1e-3
     offset = kinematics.pivot_to_pad_in_body
-    assert offset[:2] == pytest.approx([0.0, 0.0], abs=1e-12) and offset[2] == pytest.approx(0.0087, abs=1e-9)
+    assert offset[:2] == pytest.approx([0.0, 0.0], abs=1e-12)
+    assert offset[2] == pytest.approx(FingertipGeometry().pivot_to_pad_m, abs=1e-9)
     assert np.allclose(quat_to_matrix(matrix_to_quat(body.rotation)), body.rotation)
 
 
