@@ -47,6 +47,9 @@ class PlannerConfig:
         Stand poses tried (best reachability first) before a touch counts as unreachable.
     arm_clearance_m : float
         Minimum distance of the upper-arm and forearm links from the prior box.
+    retreat_offsets_m : tuple of (3,) float
+        Candidate pad positions of the rest pose relative to the stand centre (world frame: back
+        towards the robot, out to the arm's side, up); the arm waits there while the stand turns.
     """
 
     standoff_m: float = 0.03
@@ -57,6 +60,7 @@ class PlannerConfig:
     reach_cone_rad: float = np.radians(20.0)
     poses_to_try: int = 3
     arm_clearance_m: float = 0.04
+    retreat_offsets_m: tuple = ((-0.1, -0.1, 0.15), (0.0, -0.15, 0.15), (-0.15, 0.0, 0.05))
 
 
 @dataclass(frozen=True)
@@ -113,12 +117,21 @@ class ApproachPlanner:
         self.positioner = positioner
         self.prior = prior
         self.config = config
-        self.rest_q = np.asarray(kinematics.spec.home_q if rest_q is None else rest_q, float)
         names = list(kinematics.link_names)
         if collision_links is None:  # shoulder to wrist: everything before the hand
             collision_links = names[1:names.index(kinematics.spec.tool_link) - 1]
         self.collision_links = tuple(collision_links)
+        self.rest_q = self._retreat_pose() if rest_q is None else np.asarray(rest_q, float)
         self._reach_dirs, self._reachable = self._reachability_map()
+
+    def _retreat_pose(self) -> np.ndarray:
+        """A rest pose clear of the stand (the first reachable of ``retreat_offsets_m``), or home."""
+        home = np.asarray(self.kin.spec.home_q, float)
+        offsets = np.asarray(self.config.retreat_offsets_m, float)
+        approach = np.tile([1.0, 0.0, -0.3], (len(offsets), 1))
+        result = self.ik.solve(self.positioner.centre_m + offsets, approach, home)
+        ok = np.flatnonzero(result.success)
+        return result.q_rad[ok[0]] if len(ok) else home
 
     # ------------------------------------------------------------------ reachability
     def _reachability_map(self) -> tuple[np.ndarray, np.ndarray]:
