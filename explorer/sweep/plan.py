@@ -1,0 +1,171 @@
+"""What a sweep runs: objects x strategies x normals settings x seeds, one directory per run.
+
+A sweep directory holds ``sweep.json`` (the settings every run shares) and ``runs/<name>/``, one
+:func:`explorer.run.explore` output per run. A run counts as done when its ``metrics.json`` says
+``"completed": true``; everything else is (re)run, so a restarted sweep finishes only what is missing.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from explorer.run import RunSettings
+
+#: Shared settings a restarted sweep must repeat exactly (its finished runs used them).
+SHARED_KEYS = ("robot", "touches", "eval_every", "mesh_resolution")
+
+
+@dataclass(frozen=True)
+class SweepConfig:
+    """The grid of a sweep and the settings its runs share.
+
+    Attributes
+    ----------
+    objects : tuple of str
+        Registry names or mesh files (metres, object frame).
+    strategies : tuple of str
+        Names from :data:`explorer.strategies.STRATEGIES`.
+    seeds : tuple of int
+    normals : tuple of bool
+        ``(True,)`` for GPIS with normals only, ``(True, False)`` for both.
+    touches : int
+        Touch budget of every run.
+    robot : str
+    eval_every : int
+        Touches between the error-curve evaluations of a run (0: none).
+    mesh_resolution : int
+        Marching-cubes grid of each run's final reconstruction.
+    """
+
+    objects: tuple[str, ...]
+    strategies: tuple[str, ...]
+    seeds: tuple[int, ...]
+    normals: tuple[bool, ...] = (True,)
+    touches: int = 50
+    robot: str = "armar3"
+    eval_every: int = 5
+    mesh_resolution: int = 96
+
+    def __post_init__(self) -> None:
+        import objects
+        import robots
+        from explorer.strategies import STRATEGIES
+
+        for name in ("objects", "strategies", "seeds", "normals"):
+            values = getattr(self, name)
+            if isinstance(values, str) or not values:
+                raise ValueError(f"{name} must be a non-empty sequence, got {values!r}")
+            object.__setattr__(self, name, tuple(values))
+            if len(set(values)) != len(values):
+                raise ValueError(f"{name} holds duplicates: {values!r}")
+        for name in self.objects:
+            if name not in objects.names() and not Path(name).is_file():
+                raise ValueError(f"unknown object {name!r}: neither a registry name "
+                                 f"({', '.join(objects.names())}) nor an existing mesh file")
+        # Workers (Ray's especially) may start in another directory.
+        object.__setattr__(self, "objects", tuple(
+            n if n in objects.names() else str(Path(n).resolve()) for n in self.objects))
+        for name in self.strategies:
+            if name not in STRATEGIES:
+                raise ValueError(f"unknown strategy {name!r}; choose from {', '.join(STRATEGIES)}")
+        if self.robot not in robots.names():
+            raise ValueError(f"unknown robot {self.robot!r}; choose from {', '.join(robots.names())}")
+        if not all(isinstance(s, int) and s >= 0 for s in self.seeds):
+            raise ValueError(f"seeds must be non-negative integers, got {self.seeds!r}")
+        if not all(isinstance(n, bool) for n in self.normals):
+            raise ValueError(f"normals must be booleans, got {self.normals!r}")
+        for name, least in (("touches", 1), ("eval_every", 0), ("mesh_resolution", 8)):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value < least:
+                raise ValueError(f"{name} must be an integer >= {least}, got {value!r}")
+        labels = [object_label(name) for name in self.objects]
+        if len(set(labels)) != len(labels):
+            raise ValueError(f"objects {self.objects!r} give clashing run names {labels!r}; "
+                             "rename the mesh files")
+
+    def shared(self) -> dict:
+        """The settings recorded in ``sweep.json``."""
+        return {key: getattr(self, key) for key in SHARED_KEYS}
+
+
+@dataclass(frozen=True)
+class SweepRun:
+    """One cell of the grid."""
+
+    object: str
+    strategy: str
+    use_normals: bool
+    seed: int
+
+    @property
+    def name(self) -> str:
+        """Directory name: ``<object>-<strategy>-<normals|nonormals>-seed<k>``."""
+        normals = "normals" if self.use_normals else "nonormals"
+        return f"{object_label(self.object)}-{self.strategy}-{normals}-seed{self.seed}"
+
+    def settings(self, config: SweepConfig) -> RunSettings:
+        return RunSettings(object=self.object, robot=config.robot, strategy=self.strategy,
+                           touches=config.touches, seed=self.seed, use_normals=self.use_normals,
+                           eval_every=config.eval_every, mesh_resolution=config.mesh_resolution)
+
+
+def object_label(name: str) -> str:
+    """A registry name as is; a mesh file by its stem."""
+    path = Path(name)
+    return path.stem if path.suffix else name
+
+
+def plan_runs(config: SweepConfig) -> list[SweepRun]:
+    """Every run of the grid, in table order (object, strategy, normals, seed)."""
+    return [SweepRun(o, s, n, k) for o in config.objects for s in config.strategies
+            for n in config.normals for k in config.seeds]
+
+
+def run_dir(out_dir: Path, run: SweepRun) -> Path:
+    return Path(out_dir) / "runs" / run.name
+
+
+def read_metrics(directory: Path) -> dict | None:
+    """A run's ``metrics.json``, or None where it is missing or unreadable (an interrupted write)."""
+    try:
+        return json.loads((Path(directory) / "metrics.json").read_text())
+    except (FileNotFoundError, json.JSONDecodeError):
+        return None
+
+
+def is_complete(directory: Path) -> bool:
+    """Whether the run in ``directory`` finished (its ``metrics.json`` says ``"completed": true``)."""
+    metrics = read_metrics(directory)
+    return metrics is not None and metrics.get("completed") is True
+
+
+def prepare_sweep_dir(out_dir: Path, config: SweepConfig) -> None:
+    """Create ``out_dir`` and record the shared settings; refuse a directory swept with others.
+
+    Raises
+    ------
+    ValueError
+        ``out_dir/sweep.json`` records different shared settings (its finished runs would be
+        mixed with runs of another budget or robot).
+    """
+    out_dir = Path(out_dir)
+    record = out_dir / "sweep.json"
+    if record.exists():
+        previous = json.loads(record.read_text()).get("shared", {})
+        differing = {k: (previous.get(k), v) for k, v in config.shared().items() if previous.get(k) != v}
+        if differing:
+            text = ", ".join(f"{k}={old!r} there, {new!r} now" for k, (old, new) in differing.items())
+            raise ValueError(f"{out_dir} holds a sweep with other settings ({text}); "
+                             "use another output directory")
+    (out_dir / "runs").mkdir(parents=True, exist_ok=True)
+    record.write_text(json.dumps({"shared": config.shared(), "last_config": _jsonable(asdict(config))},
+                                 indent=2))
+
+
+def _jsonable(value):
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, tuple):
+        return [_jsonable(v) for v in value]
+    return value

@@ -1,0 +1,186 @@
+"""A sweep's results as one table (``sweep.csv``) and its Markdown summary (``sweep.md``).
+
+Rows come from each run's ``metrics.json``; a failed run keeps its grid cell and error message and
+leaves the numbers empty. The summary groups rows by object x strategy x normals and gives mean and
+(population) standard deviation over the seeds that finished.
+"""
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+#: Error level of the ``touches_to_3mm`` column, millimetres.
+TARGET_RMSE_MM = 3.0
+
+COLUMNS = ("object", "strategy", "normals", "seed", "touches", "contacts", "position_rmse_mm",
+           "normal_rmse_deg", "coverage", "wall_time_s", "touches_to_3mm", "completed", "error", "run")
+NUMERIC = ("touches", "contacts", "position_rmse_mm", "normal_rmse_deg", "coverage", "wall_time_s",
+           "touches_to_3mm")
+
+
+def touches_to_reach(error_curve: Sequence[dict], target_mm: float = TARGET_RMSE_MM) -> int | None:
+    """First touch count of a run's ``error_curve`` whose position RMSE is at or below ``target_mm``."""
+    for point in sorted(error_curve, key=lambda p: p["touches"]):
+        if point["position_rmse_mm"] <= target_mm:
+            return int(point["touches"])
+    return None
+
+
+def table_row(run, label: str, metrics: dict | None, error: str | None) -> dict:
+    """One ``sweep.csv`` row (values as Python scalars, None for empty).
+
+    Parameters
+    ----------
+    run : explorer.sweep.plan.SweepRun
+    label : str
+        The object's name in the table (a mesh file's stem).
+    metrics : dict or None
+        The run's ``metrics.json``; only used when the run completed.
+    error : str or None
+        Why the run failed; None for a completed run.
+    """
+    row = dict(object=label, strategy=run.strategy, normals=run.use_normals, seed=run.seed,
+               completed=error is None, error=error, run=run.name)
+    for key in NUMERIC:
+        row[key] = None
+    if error is None:
+        if metrics is None:
+            raise ValueError(f"run {run.name} has no metrics.json but no error either")
+        for key in NUMERIC[:-1]:
+            row[key] = metrics.get(key)
+        row["touches_to_3mm"] = touches_to_reach(metrics.get("error_curve", []))
+    return row
+
+
+def write_csv(rows: Sequence[dict], path: Path) -> Path:
+    """Write the table; floats at full precision, empty cells for None."""
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: _cell(row[k]) for k in COLUMNS})
+    return Path(path)
+
+
+def read_csv(path: Path) -> list[dict]:
+    """``sweep.csv`` back as rows with numbers, booleans and None (the inverse of :func:`write_csv`)."""
+    with open(path, newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    parsed = []
+    for row in rows:
+        out = dict(row)
+        out["normals"] = row["normals"] == "true"
+        out["completed"] = row["completed"] == "true"
+        out["seed"] = int(row["seed"])
+        out["error"] = row["error"] or None
+        for key in NUMERIC:
+            out[key] = None if row[key] == "" else float(row[key])
+        parsed.append(out)
+    return parsed
+
+
+@dataclass(frozen=True)
+class SummaryRow:
+    """One object x strategy x normals group of the summary; statistics over finished seeds.
+
+    Errors are mean and population standard deviation (NaN where no seed finished);
+    ``touches_to_target_mean`` averages the seeds that reached the target (NaN where none did).
+    """
+
+    object: str
+    strategy: str
+    normals: bool
+    runs: int
+    completed: int
+    position_rmse_mm_mean: float
+    position_rmse_mm_std: float
+    normal_rmse_deg_mean: float
+    normal_rmse_deg_std: float
+    coverage_mean: float
+    reached_target: int
+    touches_to_target_mean: float
+
+
+def summarise(rows: Sequence[dict]) -> list[SummaryRow]:
+    """Group ``rows`` (as from :func:`read_csv`) by object, strategy and normals, in table order."""
+    groups: dict[tuple, list[dict]] = {}
+    for row in rows:
+        groups.setdefault((row["object"], row["strategy"], row["normals"]), []).append(row)
+    summary = []
+    for (obj, strategy, normals), members in groups.items():
+        done = [r for r in members if r["completed"]]
+        position = _values(done, "position_rmse_mm")
+        angle = _values(done, "normal_rmse_deg")
+        reached = _values(done, "touches_to_3mm")
+        summary.append(SummaryRow(
+            obj, strategy, normals, len(members), len(done), _mean(position), _std(position),
+            _mean(angle), _std(angle), _mean(_values(done, "coverage")), len(reached), _mean(reached)))
+    return summary
+
+
+def write_markdown(summary: Sequence[SummaryRow], rows: Sequence[dict], path: Path,
+                   description: str = "") -> Path:
+    """The summary table, then the failed runs with their errors."""
+    lines = ["# Sweep summary", ""]
+    if description:
+        lines += [description, ""]
+    lines += [
+        f"Mean +- population std over the seeds that finished. Touches to {TARGET_RMSE_MM:g} mm: "
+        "mean over the seeds whose error curve reached it (how many of them in brackets).",
+        "",
+        "| object | strategy | normals | finished | position RMSE (mm) | normal RMSE (deg) | coverage "
+        f"| touches to {TARGET_RMSE_MM:g} mm |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for s in summary:
+        lines.append(
+            f"| {s.object} | {s.strategy} | {'yes' if s.normals else 'no'} | {s.completed}/{s.runs} "
+            f"| {_pm(s.position_rmse_mm_mean, s.position_rmse_mm_std)} "
+            f"| {_pm(s.normal_rmse_deg_mean, s.normal_rmse_deg_std, 1)} | {_fmt(s.coverage_mean, 3)} "
+            f"| {_fmt(s.touches_to_target_mean, 1)} ({s.reached_target}/{s.completed}) |")
+    failed = [r for r in rows if not r["completed"]]
+    if failed:
+        lines += ["", f"## Failed runs ({len(failed)})", "", "Rerun the sweep with the same arguments "
+                  "to retry them (finished runs are kept).", ""]
+        lines += [f"- `{r['run']}`: {_one_line(r['error'])}" for r in failed]
+    Path(path).write_text("\n".join(lines) + "\n")
+    return Path(path)
+
+
+def _values(rows: Sequence[dict], key: str) -> np.ndarray:
+    return np.array([r[key] for r in rows if r[key] is not None], float)
+
+
+def _mean(values: np.ndarray) -> float:
+    return float(values.mean()) if len(values) else math.nan
+
+
+def _std(values: np.ndarray) -> float:
+    return float(values.std()) if len(values) else math.nan
+
+
+def _fmt(value: float, digits: int = 2) -> str:
+    return "-" if math.isnan(value) else f"{value:.{digits}f}"
+
+
+def _pm(mean: float, std: float, digits: int = 2) -> str:
+    return "-" if math.isnan(mean) else f"{mean:.{digits}f} +- {std:.{digits}f}"
+
+
+def _one_line(text: str | None) -> str:
+    return " ".join((text or "").split())
+
+
+def _cell(value) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)

@@ -1,0 +1,62 @@
+"""``tactile-sweep``: benchmark runs over objects x strategies x seeds, in parallel, resumable.
+
+    tactile-sweep --objects sphere,box --strategies random,variance --seeds 5 --touches 50 \
+        --workers 2 --out results/sweep [--no-normals-too] [--ray local|ADDRESS]
+
+Finished runs (``runs/<name>/metrics.json`` with ``"completed": true``) are kept: rerun the same
+command after an interruption to finish the rest. Outputs: ``sweep.csv``, ``sweep.md``,
+``failures.json``, ``figures/``.
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def main(argv: list[str] | None = None) -> int:
+    from explorer.sweep import SweepConfig, run_sweep
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--objects", default="sphere,box",
+                        help="comma-separated registry names or mesh files (metres)")
+    parser.add_argument("--strategies", default="random,variance", help="comma-separated")
+    parser.add_argument("--seeds", type=int, default=5, help="number of seeds: 0 .. N-1")
+    parser.add_argument("--touches", type=int, default=50, help="touch budget of each run")
+    parser.add_argument("--workers", type=int, default=2, help="runs at a time")
+    parser.add_argument("--out", type=Path, default=Path("results/sweep"))
+    parser.add_argument("--no-normals-too", action="store_true",
+                        help="also run every cell with the classic GPIS without normals")
+    parser.add_argument("--ray", metavar="ADDRESS",
+                        help="run on Ray: 'local' starts a local instance, else a cluster address")
+    parser.add_argument("--robot", default="armar3")
+    parser.add_argument("--eval-every", type=int, default=5, help="touches between error evaluations")
+    parser.add_argument("--mesh-resolution", type=int, default=96)
+    args = parser.parse_args(argv)
+    if args.seeds < 1:
+        parser.error("--seeds must be at least 1")
+    if args.workers < 1:
+        parser.error("--workers must be at least 1")
+    try:
+        config = SweepConfig(objects=_names(args.objects), strategies=_names(args.strategies),
+                             seeds=tuple(range(args.seeds)),
+                             normals=(True, False) if args.no_normals_too else (True,),
+                             touches=args.touches, robot=args.robot, eval_every=args.eval_every,
+                             mesh_resolution=args.mesh_resolution)
+        report = run_sweep(config, args.out, workers=args.workers, ray_address=args.ray)
+    except (ValueError, ImportError) as exc:
+        parser.error(str(exc))
+    print(report.markdown_path.read_text())
+    print(f"{len(report.executed)} runs executed, {len(report.skipped)} already finished, "
+          f"{len(report.failures)} failed; outputs in {args.out}")
+    return 1 if report.failures else 0
+
+
+def _names(text: str) -> tuple[str, ...]:
+    names = tuple(n.strip() for n in text.split(","))
+    if not all(names):
+        raise ValueError(f"empty name in {text!r}")
+    return names
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
