@@ -1,0 +1,49 @@
+"""``tactile-reconstruct``: replay a recorded session with new detector thresholds and GPIS settings.
+
+    tactile-reconstruct results/explore/session --out results/replay --start-threshold-pa 150
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+
+def main(argv: list[str] | None = None) -> None:
+    from reconstruction.gpis import KERNEL_NAMES
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("session", type=Path, help="a session directory (or the run directory holding it)")
+    parser.add_argument("--out", type=Path, required=True, help="output directory")
+    parser.add_argument("--kernel", default="thin_plate", choices=KERNEL_NAMES)
+    parser.add_argument("--noise", type=float, help="GPIS value noise, metres")
+    parser.add_argument("--normal-noise", type=float, help="GPIS normal noise (per gradient component)")
+    parser.add_argument("--no-normals", action="store_true", help="classic GPIS without normals")
+    parser.add_argument("--start-threshold-pa", type=float, help="contact start threshold, Pa above baseline")
+    parser.add_argument("--end-threshold-pa", type=float, help="contact end threshold, Pa above baseline")
+    parser.add_argument("--resolution", type=int, help="mesh grid samples along the longest side")
+    args = parser.parse_args(argv)
+    if not args.session.is_dir():
+        parser.error(f"session directory {args.session} does not exist")
+
+    import torch
+
+    from explorer.replay import ReplaySettings, replay
+
+    torch.set_num_threads(1)  # small tensors: extra threads only add synchronisation
+    try:
+        settings = ReplaySettings(
+            start_threshold_pa=args.start_threshold_pa, end_threshold_pa=args.end_threshold_pa,
+            kernel=args.kernel, noise=args.noise, normal_noise=args.normal_noise,
+            use_normals=False if args.no_normals else None, mesh_resolution=args.resolution)
+        result = replay(args.session, settings, args.out)
+    except ValueError as err:
+        parser.error(str(err))
+    keys = ("touches", "contacts", "misses", "set_aside", "no_normal", "recorded_contacts",
+            "position_rmse_mm", "normal_rmse_deg", "notes")
+    print(json.dumps({k: result.metrics.get(k) for k in keys}, indent=2))
+    print(f"outputs in {args.out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,143 @@
+"""Offline replay of a recorded exploration: exact reproduction, new thresholds, cut-off sessions."""
+import json
+import shutil
+
+import numpy as np
+import pytest
+import torch
+
+from explorer.recording import read_contacts_csv
+from explorer.replay import ReplaySettings, SessionReplay, press_spans, replay
+from explorer.run import RunSettings, explore
+from explorer.session import read_session
+
+
+@pytest.fixture(scope="module")
+def sphere_run(tmp_path_factory):
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        out = tmp_path_factory.mktemp("recorded")
+        yield explore(RunSettings(object="sphere", touches=5, seed=0, eval_every=0, mesh_resolution=32), out)
+    finally:
+        torch.set_num_threads(before)
+
+
+@pytest.fixture(scope="module")
+def session(sphere_run):
+    return SessionReplay(sphere_run.out_dir / "session")
+
+
+@pytest.fixture(scope="module")
+def recorded_replay(session):
+    return session.run(ReplaySettings(figures=False))
+
+
+def test_recorded_settings_reproduce_the_contacts(sphere_run, recorded_replay):
+    points, normals = read_contacts_csv(sphere_run.out_dir / "contacts.csv")
+    assert len(points) == sphere_run.metrics["contacts"] >= 4
+    assert [t.index for t in recorded_replay.contacts] == [r.index for r in sphere_run.records if r.kind == "contact"]
+    np.testing.assert_allclose(recorded_replay.points_m, points, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(recorded_replay.normals, normals, rtol=0, atol=1e-9)
+    recorded = read_session(sphere_run.out_dir / "session").contacts
+    for replayed, original in zip(recorded_replay.contacts, recorded):  # world frame, readings used
+        assert replayed.contact.t_s == original.t_s
+        assert len(replayed.contact.readings) == len(original.readings)
+        np.testing.assert_allclose(replayed.contact.position_m, original.position_m, rtol=0, atol=1e-9)
+
+
+def test_recorded_settings_reproduce_the_reconstruction(sphere_run, recorded_replay):
+    rng = np.random.default_rng(0)
+    samples = rng.uniform(-0.07, 0.07, size=(2000, 3))
+    np.testing.assert_allclose(recorded_replay.gpis.mean(samples), sphere_run.gpis.mean(samples),
+                               rtol=0, atol=1e-6)
+
+
+def test_press_spans_split_at_free_moves():
+    tick = 1 / 120
+    dense = lambda t0, n: t0 + tick * np.arange(n)  # noqa: E731
+    t = np.concatenate([dense(0.0, 50), [0.9], dense(2.0, 30), dense(2.0 + 30 * tick + tick, 20)])
+    spans = press_spans(t)
+    assert [(s.first, s.last) for s in spans] == [(0, 49), (51, 100)]  # a two-tick gap is no split
+    assert spans[1].t_start_s == 2.0
+
+
+def test_a_higher_start_threshold_starts_later_on_a_larger_rise(session, recorded_replay):
+    raised = session.run(ReplaySettings(start_threshold_pa=200.0, figures=False))
+    assert len(raised.touches) == len(recorded_replay.touches)
+    compared = 0
+    for high, default in zip(raised.touches, recorded_replay.touches):
+        if high.contact is None:
+            continue
+        first = high.contact.readings[0]
+        assert first.t_s >= default.contact.readings[0].t_s
+        assert first.pressure_pa - high.baseline_pa > 200.0
+        compared += 1
+    assert compared >= 1
+
+
+def test_a_threshold_above_every_rise_finds_no_contact(session, tmp_path):
+    pressure = session.readings.pressure_pa
+    above_all = float(pressure.max() - pressure.min()) + 1.0
+    result = session.run(ReplaySettings(start_threshold_pa=above_all, end_threshold_pa=1.0, figures=False),
+                         tmp_path)
+    assert [t.kind for t in result.touches] == ["miss"] * len(result.touches)
+    assert result.metrics["contacts"] == 0 and result.gpis.n_contacts == 0
+    assert (tmp_path / "contacts.csv").read_text().count("\n") == 1  # the header only
+    assert not (tmp_path / "reconstruction.ply").exists()
+
+
+def test_a_lower_threshold_never_starts_later(session, recorded_replay):
+    lowered = session.run(ReplaySettings(start_threshold_pa=30.0, end_threshold_pa=20.0, figures=False))
+    assert len(lowered.contacts) == len(recorded_replay.contacts)
+    for low, default in zip(lowered.contacts, recorded_replay.contacts):
+        assert low.contact.readings[0].t_s <= default.contact.readings[0].t_s
+        assert low.contact.readings[0].pressure_pa - low.baseline_pa > 30.0
+
+
+def test_a_session_cut_mid_write_is_replayed_up_to_its_last_complete_reading(sphere_run, recorded_replay,
+                                                                              tmp_path):
+    copy = tmp_path / "session"
+    shutil.copytree(sphere_run.out_dir / "session", copy)
+    spans = press_spans(read_session(copy).joint_states.t_s)
+    cut_time = 0.5 * (spans[3].t_start_s + spans[3].t_end_s)  # halfway through the fourth press
+    path = copy / "readings.csv"
+    lines = path.read_bytes().split(b"\n")
+    keep = 1 + sum(float(line.split(b",")[0]) <= cut_time for line in lines[1:] if line)
+    path.write_bytes(b"\n".join(lines[:keep]) + b"\n" + lines[keep][:17])  # a partial last line
+    result = replay(copy, ReplaySettings(figures=False))
+    assert [t.index for t in result.touches] == [0, 1, 2]
+    np.testing.assert_array_equal(result.points_m, recorded_replay.points_m[:3])
+    assert any("readings.csv" in note and "cut off" in note for note in result.notes)
+    assert sum("ends before its press" in note for note in result.notes) == 2
+
+
+def test_the_command_writes_the_run_outputs(sphere_run, tmp_path, capsys):
+    from scripts.reconstruct import main
+
+    main([str(sphere_run.out_dir), "--out", str(tmp_path), "--resolution", "24", "--kernel",
+          "thin_plate", "--noise", "0.001", "--normal-noise", "0.1"])
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    assert metrics["replay"]["noise"] == 0.001 and metrics["replay"]["normal_noise"] == 0.1
+    assert metrics["contacts"] == sphere_run.metrics["contacts"]
+    assert metrics["position_rmse_mm"] < 2.0
+    for name in ("contacts.csv", "reconstruction.ply", "reconstruction_error.png", "potential_slice.png"):
+        assert (tmp_path / name).stat().st_size > 500, name
+    assert '"contacts"' in capsys.readouterr().out
+
+
+def test_bad_settings_are_refused():
+    with pytest.raises(ValueError, match="kernel"):
+        ReplaySettings(kernel="cubic")
+    with pytest.raises(ValueError, match="mesh_resolution"):
+        ReplaySettings(mesh_resolution=2)
+
+
+def test_the_gpis_settings_are_applied(session, recorded_replay):
+    samples = np.random.default_rng(1).uniform(-0.06, 0.06, size=(500, 3))
+    squared = session.run(ReplaySettings(kernel="squared_exponential", figures=False))
+    without = session.run(ReplaySettings(use_normals=False, figures=False))
+    assert squared.gpis.kernel_spec == "squared_exponential" and not without.gpis.use_normals
+    for other in (squared, without):
+        np.testing.assert_array_equal(other.points_m, recorded_replay.points_m)
+        assert np.max(np.abs(other.gpis.mean(samples) - recorded_replay.gpis.mean(samples))) > 1e-3
