@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -58,7 +59,8 @@ def run_sweep(config: SweepConfig, out_dir, workers: int = 2, ray_address: str |
     Writes ``runs/<name>/`` (one :func:`explorer.run.explore` output each), ``sweep.csv``,
     ``sweep.md``, ``failures.json`` (run, error, traceback of each run that raised) and
     ``figures/<object>_{position,normal}_error.png``. The table is written also when the sweep is
-    interrupted, with the unfinished runs marked.
+    interrupted, with the unfinished runs marked. A run directory without a completed
+    ``metrics.json`` is deleted and its run starts over. One sweep per directory at a time.
 
     Parameters
     ----------
@@ -75,10 +77,14 @@ def run_sweep(config: SweepConfig, out_dir, workers: int = 2, ray_address: str |
     report = SweepReport(out_dir)
     jobs = []
     for run in plan:
-        if is_complete(run_dir(out_dir, run)):
+        directory = run_dir(out_dir, run)
+        if is_complete(directory):
             report.skipped.append(run.name)
-        else:
-            jobs.append(RunJob(run.name, run.settings(config), run_dir(out_dir, run)))
+            continue
+        if directory.exists():
+            # What an interrupted or failed run left is superseded: the run starts over.
+            shutil.rmtree(directory)
+        jobs.append(RunJob(run.name, run.settings(config), directory))
     bar = _progress_bar(len(plan), len(report.skipped), show_progress)
 
     def on_done(outcome: RunOutcome) -> None:
