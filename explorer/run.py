@@ -129,7 +129,7 @@ def _finish(loop, gpis, truth, planner, prior, out_dir, recorder, settings, curv
         seed=settings.seed, use_normals=settings.use_normals,
         touches=len(records), contacts=kinds.count("contact"), misses=kinds.count("miss"),
         unreachable=kinds.count("unreachable"), no_normal=kinds.count("no_normal"),
-        realign=kinds.count("realign"), unaligned=kinds.count("unaligned"), blocked=kinds.count("blocked"),
+        realign=kinds.count("realign"), blocked=kinds.count("blocked"),
         wall_time_s=wall_s, simulated_time_s=sim_time_s,
         phase_times_s=loop.times.as_dict(), evaluation_time_s=eval_s,
         completed=error is None, machine=f"{platform.machine()}, python {platform.python_version()}",
