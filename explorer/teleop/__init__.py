@@ -1,0 +1,1 @@
+"""Human-guided exploration: input devices and the teleoperated session (shared autonomy)."""

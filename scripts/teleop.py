@@ -1,0 +1,59 @@
+"""``tactile-teleop``: explore an object by hand with the simulated arm (keyboard or SpaceMouse).
+
+    tactile-teleop --object sphere --device keyboard --out results/teleop
+    tactile-teleop --object sphere --headless --script touches.json --out results/teleop
+
+Keyboard (PyBullet window): arrows jog the pad in x / y, page up / down in z, ``r`` saves a
+reconstruction snapshot, ``q`` quits. Contacts are recorded when the pad rests in contact; the red
+cross marks the suggested next touch (the most uncertain point of the reconstruction).
+A script is a JSON list of ``{"duration_s", "linear_mps", "angular_radps", "buttons"}`` steps.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+
+def main(argv: list[str] | None = None) -> None:
+    import objects
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--object", required=True,
+                        help=f"registry name ({', '.join(objects.names())}) or a mesh file in metres")
+    parser.add_argument("--device", default="keyboard", choices=("keyboard", "spacemouse"))
+    parser.add_argument("--out", type=Path, default=Path("results/teleop"))
+    parser.add_argument("--robot", default="armar3")
+    parser.add_argument("--headless", action="store_true", help="no window; needs --script")
+    parser.add_argument("--script", type=Path, help="JSON script of timed commands (replaces the device)")
+    args = parser.parse_args(argv)
+    if args.headless and args.script is None:
+        parser.error("--headless needs --script (nobody can steer without a window)")
+    if args.script is not None and not args.script.is_file():
+        parser.error(f"script file {args.script} does not exist")
+
+    import torch
+
+    from explorer.teleop.devices import KeyboardDevice, ScriptedDevice, SpaceMouseDevice
+    from explorer.teleop.simulated import run_simulated_teleop
+
+    torch.set_num_threads(1)  # small tensors: extra threads only add synchronisation
+
+    def device(context):
+        if args.script is not None:
+            return ScriptedDevice.from_json(args.script, context.clock)
+        if args.device == "spacemouse":
+            return SpaceMouseDevice()
+        return KeyboardDevice(context.key_events)
+
+    try:
+        result = run_simulated_teleop(args.object, device, args.out, robot=args.robot, gui=not args.headless)
+    except ValueError as err:
+        parser.error(str(err))
+    suggestion = None if result.suggestion_m is None else [round(float(v), 4) for v in result.suggestion_m]
+    print(json.dumps({"contacts": len(result.contacts), "suggested_touch_m": suggestion}))
+    print(f"outputs in {args.out}")
+
+
+if __name__ == "__main__":
+    main()
