@@ -98,3 +98,16 @@ def test_headless_needs_a_script(capsys):
     with pytest.raises(SystemExit):
         main(["--object", "sphere", "--headless"])
     assert "--script" in capsys.readouterr().err
+
+
+def test_the_command_plays_a_script_file_headless(tmp_path, capsys):
+    from scripts.teleop import main
+
+    script = tmp_path / "jog.json"
+    script.write_text(json.dumps([{"duration_s": 0.3, "linear_mps": [-0.01, 0.0, 0.0]},
+                                  {"duration_s": 0.2, "buttons": ["record"]}]))
+    main(["--object", "sphere", "--headless", "--script", str(script), "--out", str(tmp_path / "out")])
+    assert json.loads(capsys.readouterr().out.splitlines()[0]) == {"contacts": 0, "suggested_touch_m": None}
+    session = read_session(tmp_path / "out" / "session")
+    assert session.closed_cleanly and len(session.contacts) == 0
+    assert session.readings.t_s[-1] - session.readings.t_s[0] == pytest.approx(0.5, abs=0.05)
