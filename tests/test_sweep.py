@@ -222,3 +222,23 @@ def test_no_finished_seed_gives_no_statistics():
     (summary,) = summarise(rows)
     assert (summary.runs, summary.completed, summary.reached_target) == (1, 0, 0)
     assert math.isnan(summary.position_rmse_mm_mean) and math.isnan(summary.touches_to_target_mean)
+
+
+def test_an_interrupted_pool_stops_its_workers_without_finishing_queued_runs(broken_mesh, tmp_path):
+    import multiprocessing
+
+    from explorer.sweep import RunJob
+    from explorer.run import RunSettings
+
+    jobs = [RunJob("broken", RunSettings(object=str(broken_mesh), touches=4), tmp_path / "broken"),
+            RunJob("sphere", RunSettings(object="sphere", touches=4, eval_every=0, mesh_resolution=24),
+                   tmp_path / "sphere")]
+
+    def interrupt(outcome):
+        assert outcome.name == "broken" and "ValueError" in outcome.error
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_in_pool(jobs, 1, interrupt)
+    assert multiprocessing.active_children() == []
+    assert not is_complete(tmp_path / "sphere")  # queued to the worker, but not run to the end

@@ -102,10 +102,26 @@ def run_in_pool(jobs: Sequence[RunJob], workers: int, on_done: OnDone,
                         outcome = RunOutcome(futures[future].name, f"worker process died: {exc}")
                     outcomes.append(outcome)
                     on_done(outcome)
-        except BaseException:
-            pool.shutdown(wait=True, cancel_futures=True)
+        except BaseException:  # Ctrl-C: stop now, not after the runs already queued to workers
+            _stop_workers(pool)
             raise
     return outcomes
+
+
+def _stop_workers(pool: ProcessPoolExecutor) -> None:
+    terminate = getattr(pool, "terminate_workers", None)  # Python >= 3.14
+    if terminate is not None:
+        terminate()
+        return
+    # Before 3.14 the pool has no public way; a worker would otherwise go on with the runs
+    # already handed to it (an unfinished run is redone from scratch on restart anyway).
+    # Taken before shutdown, which forgets them.
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.terminate()
+    for process in processes:
+        process.join(timeout=10)
 
 
 def run_on_ray(jobs: Sequence[RunJob], address: str, workers: int, on_done: OnDone) -> list[RunOutcome]:
