@@ -108,7 +108,7 @@ class TouchRecord:
     target_m: np.ndarray
     approach_dir: np.ndarray
     stand_yaw_rad: float = 0.0
-    stand_flip_rad: float = 0.0
+    stand_tilt_rad: float = 0.0
     contact: OrientedContact | None = None  # world frame, as measured
     position_m: np.ndarray | None = None  # object frame
     normal: np.ndarray | None = None  # object frame
@@ -245,7 +245,7 @@ class ExplorationLoop:
             self.state.unreachable_m.append(plan.touch.target_m)
             self.times.simulation_s += time.perf_counter() - t0
             return TouchRecord(index, "blocked", plan.touch.target_m, plan.touch.approach_dir,
-                               plan.stand.yaw_rad, plan.stand.flip_rad, t_s=self.robot.time_s())
+                               plan.stand.yaw_rad, plan.stand.tilt_rad, t_s=self.robot.time_s())
         self._poll()
         self.detector.reset()
         self._contact_readings = []
@@ -253,7 +253,7 @@ class ExplorationLoop:
         approach = self.robot.guarded_move(plan.path_q[1:], stop=self._contact_started,
                                            speed_rad_s=speed)
         record = TouchRecord(index, "miss", plan.touch.target_m, plan.touch.approach_dir,
-                             plan.stand.yaw_rad, plan.stand.flip_rad, t_s=self.robot.time_s())
+                             plan.stand.yaw_rad, plan.stand.tilt_rad, t_s=self.robot.time_s())
         if approach.stopped:
             start_pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
             remaining = plan.path_q[min(approach.waypoint_index + 1, len(plan.path_q) - 1):]

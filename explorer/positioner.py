@@ -1,12 +1,13 @@
 """Object positioners: a rotating stand whose known angles carry contacts into the object frame.
 
-One arm on a fixed torso cannot reach around an object. A turntable (yaw about the vertical) with a
-flip (a half turn about a horizontal axis, as a person turning the object over on the stand, or a
-tilt stage) brings every side within reach. The loop only sees :class:`Positioner`: the angles it
+One arm on a fixed torso cannot reach around an object. A turntable (yaw about the vertical) on a
+tilt stage (quarter turns about a horizontal axis, as a person laying the object on its side or
+upside down) brings every side within reach: the ARMAR-III wrist cannot point the pad straight down
+or up, so faces whose normal is vertical are reached after a quarter tilt. The loop only sees :class:`Positioner`: the angles it
 may choose and the object pose they produce; the simulated stand moves the PyBullet body, a real
 one drives a motor or asks a person.
 
-Pose convention: ``x_world = centre + Rz(yaw) Rx(flip) x_object``.
+Pose convention: ``x_world = centre + Rz(yaw) Rx(tilt) x_object``.
 """
 from __future__ import annotations
 
@@ -21,13 +22,13 @@ class StandPose:
     """Angles of the stand, radians."""
 
     yaw_rad: float = 0.0
-    flip_rad: float = 0.0
+    tilt_rad: float = 0.0
 
 
 def stand_rotation(pose: StandPose) -> np.ndarray:
     """(3, 3) rotation object -> world for the stand angles."""
     cy, sy = np.cos(pose.yaw_rad), np.sin(pose.yaw_rad)
-    cf, sf = np.cos(pose.flip_rad), np.sin(pose.flip_rad)
+    cf, sf = np.cos(pose.tilt_rad), np.sin(pose.tilt_rad)
     rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
     rx = np.array([[1.0, 0.0, 0.0], [0.0, cf, -sf], [0.0, sf, cf]])
     return rz @ rx
@@ -77,13 +78,13 @@ class Positioner(abc.ABC):
         return points, np.asarray(directions_object, float) @ R.T
 
 
-def turntable_poses(yaw_steps: int = 12, flip: bool = True) -> tuple[StandPose, ...]:
-    """Evenly spaced yaw angles, each with and (if ``flip``) without the object turned over."""
-    if yaw_steps < 1:
-        raise ValueError(f"yaw_steps must be >= 1, got {yaw_steps}")
+def turntable_poses(yaw_steps: int = 12, tilt_steps: int = 4) -> tuple[StandPose, ...]:
+    """Evenly spaced yaw angles, each at ``tilt_steps`` evenly spaced tilts (1: upright only)."""
+    if yaw_steps < 1 or tilt_steps < 1:
+        raise ValueError(f"yaw_steps and tilt_steps must be >= 1, got {yaw_steps}, {tilt_steps}")
     yaws = 2 * np.pi * np.arange(yaw_steps) / yaw_steps
-    flips = (0.0, np.pi) if flip else (0.0,)
-    return tuple(StandPose(float(y), float(f)) for f in flips for y in yaws)
+    tilts = 2 * np.pi * np.arange(tilt_steps) / tilt_steps
+    return tuple(StandPose(float(y), float(t)) for t in tilts for y in yaws)
 
 
 class FixedStand(Positioner):
@@ -103,7 +104,7 @@ class FixedStand(Positioner):
 
 
 class SimulatedStand(Positioner):
-    """A turntable-with-flip in the simulator: re-poses the (static) object body.
+    """A turntable on a tilt stage in the simulator: re-poses the (static) object body.
 
     The stand's own structure is not simulated: the object is held rigidly at ``centre_m`` with
     nothing occluding it.

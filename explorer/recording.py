@@ -14,7 +14,7 @@ import numpy as np
 from explorer.loop import Recorder, TouchRecord
 from explorer.session import SessionWriter
 
-CONTACTS_HEADER = "touch,x,y,z,nx,ny,nz,t_s,force_n,stand_yaw_rad,stand_flip_rad\n"
+CONTACTS_HEADER = "touch,x,y,z,nx,ny,nz,t_s,force_n,stand_yaw_rad,stand_tilt_rad\n"
 
 
 class RunRecorder(Recorder):
@@ -51,7 +51,7 @@ class RunRecorder(Recorder):
         kind = "touch" if record.kind == "contact" else ("miss" if record.kind == "miss" else record.kind)
         fields = dict(target_m=record.target_m.tolist(), approach_dir=record.approach_dir.tolist(),
                       index=record.index, result=record.kind,
-                      stand_yaw_rad=record.stand_yaw_rad, stand_flip_rad=record.stand_flip_rad)
+                      stand_yaw_rad=record.stand_yaw_rad, stand_tilt_rad=record.stand_tilt_rad)
         if record.position_m is not None:  # also for contacts set aside for a realign touch
             fields.update(position_m=record.position_m.tolist(), normal=record.normal.tolist())
         self.session.write_event(kind, record.t_s, **fields)
@@ -59,7 +59,7 @@ class RunRecorder(Recorder):
             return
         self.session.write_contact(record.contact)
         values = [*record.position_m, *record.normal, record.contact.t_s, record.contact.force_n,
-                  record.stand_yaw_rad, record.stand_flip_rad]
+                  record.stand_yaw_rad, record.stand_tilt_rad]
         # repr of a Python float round-trips exactly
         self._contacts.write(f"{record.index}," + ",".join(repr(float(v)) for v in values) + "\n")
         self._flush()

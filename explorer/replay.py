@@ -101,7 +101,7 @@ class ReplayedTouch:
         What the loop recorded for this touch.
     target_m, approach_dir : (3,) float
         The touch as planned.
-    stand_yaw_rad, stand_flip_rad : float
+    stand_yaw_rad, stand_tilt_rad : float
     contact : OrientedContact or None
         World frame, as measured.
     position_m, normal : (3,) float or None
@@ -116,7 +116,7 @@ class ReplayedTouch:
     target_m: np.ndarray
     approach_dir: np.ndarray
     stand_yaw_rad: float
-    stand_flip_rad: float
+    stand_tilt_rad: float
     contact: OrientedContact | None = None
     position_m: np.ndarray | None = None
     normal: np.ndarray | None = None
@@ -289,7 +289,7 @@ class SessionReplay:
         f = event.fields
         touch = ReplayedTouch(int(f.get("index", -1)), "miss", f["result"], np.asarray(f["target_m"], float),
                               np.asarray(f["approach_dir"], float), float(f.get("stand_yaw_rad", 0.0)),
-                              float(f.get("stand_flip_rad", 0.0)))
+                              float(f.get("stand_tilt_rad", 0.0)))
         t = self.readings.t_s
         first = int(np.searchsorted(t, span.t_start_s, side="right"))
         stop = int(np.searchsorted(t, span.t_end_s, side="right"))
@@ -316,7 +316,7 @@ class SessionReplay:
             touch.kind = "no_normal"
             return touch
         surface = contact.position_m + contact.normal * contact.force_n * self.loop_config.pad_compliance_m_per_n
-        rotation = stand_rotation(StandPose(touch.stand_yaw_rad, touch.stand_flip_rad))
+        rotation = stand_rotation(StandPose(touch.stand_yaw_rad, touch.stand_tilt_rad))
         touch.contact = contact
         touch.position_m = (surface - self.stand_centre_m) @ rotation
         normal = contact.normal @ rotation
@@ -383,7 +383,7 @@ class SessionReplay:
             f.write(CONTACTS_HEADER)
             for t in result.contacts:
                 values = [*t.position_m, *t.normal, t.contact.t_s, t.contact.force_n,
-                          t.stand_yaw_rad, t.stand_flip_rad]
+                          t.stand_yaw_rad, t.stand_tilt_rad]
                 f.write(f"{t.index}," + ",".join(repr(float(v)) for v in values) + "\n")
         metrics = result.metrics
         mesh = None

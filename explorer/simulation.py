@@ -61,9 +61,9 @@ class SimScene:
 
 def build_scene(object_name: str, robot_name: str = "armar3", seed: int = 0, gui: bool = False,
                 sensor_config: SimulatedSensorConfig | None = None, yaw_steps: int = 12,
-                flip: bool = True, stand_centre_m=None,
+                tilt_steps: int = 4, stand_centre_m=None,
                 pad_stiffness_n_per_m: float = PAD_STIFFNESS_N_PER_M) -> SimScene:
-    """Load the robot, the object on a turntable-with-flip stand at the arm's workspace centre,
+    """Load the robot, the object on a turntable-and-tilt stand at the arm's workspace centre,
     and the simulated sensor wired to the pad.
 
     Parameters
@@ -84,7 +84,7 @@ def build_scene(object_name: str, robot_name: str = "armar3", seed: int = 0, gui
         centre = np.asarray(spec.workspace_center_m if stand_centre_m is None else stand_centre_m, float)
         handle = world.add_object(model.urdf_path, centre, name=model.name)
         stand = SimulatedStand(lambda p, q: world.set_object_pose(handle, p, q), centre,
-                               turntable_poses(yaw_steps, flip))
+                               turntable_poses(yaw_steps, tilt_steps))
         arm = SimArm(world, spec, encoder=EncoderModel(resolution_rad=ENCODER_RESOLUTION_RAD, seed=seed))
         sensor = SimulatedTactileSensor(config=sensor_config, seed=seed)
         world.add_step_listener(lambda _t: sensor.on_step(arm.pad_state()))

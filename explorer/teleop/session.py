@@ -265,7 +265,7 @@ class TeleopSession:
         pose = self.positioner.pose()
         normal = n_obj[0] / np.linalg.norm(n_obj[0])
         index = len(self.contacts)
-        record = TouchRecord(index, "contact", p_obj[0], axis_obj[0], pose.yaw_rad, pose.flip_rad,
+        record = TouchRecord(index, "contact", p_obj[0], axis_obj[0], pose.yaw_rad, pose.tilt_rad,
                              contact=contact, position_m=p_obj[0], normal=normal, t_s=contact.t_s)
         self.recorder.touch(record)
         teleop_contact = TeleopContact(index, p_obj[0], normal, contact)
