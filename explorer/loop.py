@@ -38,6 +38,10 @@ from sensor.oriented_contact import OrientedContact
 from sensor.reading import Reading
 
 
+#: The loop's settling test: the orientation within 0.5 deg over 0.15 s (IMU noise is ~0.1 deg).
+LOOP_SETTLING = dict(settle_window_s=0.15, max_deviation_rad=float(np.radians(0.5)))
+
+
 @dataclass(frozen=True)
 class LoopConfig:
     """Exploration settings (SI units).
@@ -113,6 +117,7 @@ class TouchRecord:
     position_m: np.ndarray | None = None  # object frame
     normal: np.ndarray | None = None  # object frame
     t_s: float = 0.0
+    press_t_s: tuple[float, float] | None = None  # detector reset .. end of the hold (replay)
 
 
 @dataclass
@@ -173,7 +178,7 @@ class ExplorationLoop:
         self.config = config
         self.recorder = recorder or Recorder()
         self.detector = detector or PressureContactDetector()
-        self.settling = settling or SettlingConfig(settle_window_s=0.15, max_deviation_rad=np.radians(0.5))
+        self.settling = settling or SettlingConfig(**LOOP_SETTLING)
         self.state = ExplorationState(prior)
         self.records: list[TouchRecord] = []
         self.times = PhaseTimes()
@@ -248,6 +253,7 @@ class ExplorationLoop:
                                plan.stand.yaw_rad, plan.stand.tilt_rad, t_s=self.robot.time_s())
         self._poll()
         self.detector.reset()
+        press_start = self.robot.time_s()
         self._contact_readings = []
         speed = self._joint_speed(plan)
         approach = self.robot.guarded_move(plan.path_q[1:], stop=self._contact_started,
@@ -261,6 +267,7 @@ class ExplorationLoop:
                                     speed_rad_s=speed * cfg.press_speed_mps / cfg.approach_speed_mps)
             self.robot.hold(cfg.settle_timeout_s, stop=self._settled_now)
             record = self._contact_record(record)
+        record.press_t_s = (press_start, self.robot.time_s())
         self._retract(plan)
         self._poll()
         self.times.simulation_s += time.perf_counter() - t0

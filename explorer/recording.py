@@ -52,6 +52,8 @@ class RunRecorder(Recorder):
         fields = dict(target_m=record.target_m.tolist(), approach_dir=record.approach_dir.tolist(),
                       index=record.index, result=record.kind,
                       stand_yaw_rad=record.stand_yaw_rad, stand_tilt_rad=record.stand_tilt_rad)
+        if record.press_t_s is not None:
+            fields["press_t_s"] = list(record.press_t_s)
         if record.position_m is not None:  # also for contacts set aside for a realign touch
             fields.update(position_m=record.position_m.tolist(), normal=record.normal.tolist())
         self.session.write_event(kind, record.t_s, **fields)

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from explorer import loop
 from explorer.loop import LoopConfig
 from explorer.planner import PlannerConfig
 from explorer.positioner import StandPose, stand_rotation
@@ -35,7 +36,7 @@ from sensor.normal_estimation import OrientationNotSettledError, SettlingConfig,
 from sensor.oriented_contact import OrientedContact
 
 #: The settling criterion the exploration loop uses (``ExplorationLoop`` default; not recorded).
-LOOP_SETTLING = SettlingConfig(settle_window_s=0.15, max_deviation_rad=float(np.radians(0.5)))
+LOOP_SETTLING = SettlingConfig(**loop.LOOP_SETTLING)
 #: Touch results whose press is in the recorded streams (the others never reached the standoff).
 PRESSED_RESULTS = ("contact", "realign", "unaligned", "miss", "no_normal")
 #: A joint-state gap longer than this many typical spacings separates two presses.

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from explorer.coverage import reachable_fraction
-from explorer.loop import ExplorationLoop, LoopConfig, TouchRecord
+from explorer.loop import LOOP_SETTLING, ExplorationLoop, LoopConfig, TouchRecord
 from explorer.planner import ApproachPlanner, PlannerConfig
 from explorer.recording import RunRecorder
 from explorer.simulation import build_scene
@@ -30,6 +30,8 @@ from explorer.strategies import make_strategy
 from explorer.touch import ObjectPrior
 from reconstruction.gpis import GPIS
 from reconstruction.metrics import contact_coverage, surface_error
+from sensor.contact_detection import PressureDetectorConfig
+from sensor.normal_estimation import SettlingConfig
 
 #: The prior box: the object's bounding box grown by this fraction of its size plus a centimetre
 #: (a rough location and size; an over-estimate is safe).
@@ -83,9 +85,13 @@ def explore(settings: RunSettings, out_dir: Path, progress=None) -> RunResult:
         planner = ApproachPlanner(scene.kinematics, PadIK(scene.kinematics), scene.stand, prior,
                                   settings.planner)
         gpis = GPIS(bounds=prior.bounds(), use_normals=settings.use_normals)
+        configuration = dict(asdict(settings), detector=asdict(PressureDetectorConfig()),
+                             settling=asdict(SettlingConfig(**LOOP_SETTLING)),
+                             stand_centre_m=scene.stand.centre_m,
+                             prior=dict(centre_m=prior.centre_m, half_extent_m=prior.half_extent_m))
         metadata = dict(robot=settings.robot, sensor="simulated BNO055 + BMP280 under polyurethane",
                         object=settings.object, seed=settings.seed,
-                        configuration=_jsonable(asdict(settings)), backend="simulation")
+                        configuration=_jsonable(configuration), backend="simulation")
         recorder = RunRecorder(out_dir, metadata)
         loop = ExplorationLoop(scene.arm, scene.sensor, scene.kinematics, planner, scene.stand,
                                make_strategy(settings.strategy, settings.seed), prior, gpis,
