@@ -28,6 +28,7 @@ from explorer import loop
 from explorer.loop import LoopConfig
 from explorer.planner import PlannerConfig
 from explorer.positioner import StandPose, stand_rotation
+from explorer.evaluation import jsonable, reconstruction_errors
 from explorer.recording import CONTACTS_HEADER
 from explorer.session import SessionReader
 from reconstruction.gpis import GPIS, KERNEL_NAMES
@@ -38,11 +39,9 @@ from sensor.oriented_contact import OrientedContact
 #: The settling criterion the exploration loop uses (``ExplorationLoop`` default; not recorded).
 LOOP_SETTLING = SettlingConfig(**loop.LOOP_SETTLING)
 #: Touch results whose press is in the recorded streams (the others never reached the standoff).
-PRESSED_RESULTS = ("contact", "realign", "unaligned", "miss", "no_normal")
+PRESSED_RESULTS = ("contact", "realign", "miss", "no_normal")
 #: A joint-state gap longer than this many typical spacings separates two presses.
 GAP_IN_SPACINGS = 4.0
-#: Contacts within this distance of a surface point count as covering it (as in explorer.run).
-COVERAGE_RADIUS_M = 0.01
 
 
 @dataclass(frozen=True)
@@ -396,8 +395,8 @@ class SessionReplay:
             except ValueError as exc:
                 metrics["reconstruction_error"] = str(exc)
         if mesh is not None and self.truth is not None:
-            metrics.update(_errors(mesh, self.truth, result.points_m, result.normals))
-        (out / "metrics.json").write_text(json.dumps(_plain(metrics), indent=2))
+            metrics.update(reconstruction_errors(mesh, self.truth, result.points_m, result.normals))
+        (out / "metrics.json").write_text(json.dumps(jsonable(metrics), indent=2))
         if mesh is not None and self.truth is not None and settings.figures:
             from reconstruction import figures
 
@@ -415,36 +414,3 @@ def replay(session_dir: Path, settings: ReplaySettings = ReplaySettings(),
         warnings.simplefilter("ignore", SessionTruncatedWarning)
         session = SessionReplay(session_dir)
     return session.run(settings, out_dir)
-
-
-def _errors(mesh, truth, points: np.ndarray, normals: np.ndarray) -> dict:
-    """Surface errors against the ground truth, and the contacts' own errors (object frame)."""
-    from objects.proximity import MeshProximity
-    from reconstruction.metrics import contact_coverage, surface_error
-
-    err = surface_error(mesh, truth)
-    errors = dict(position_rmse_mm=err.position_rmse_mm, normal_rmse_deg=err.normal_rmse_deg,
-                  edge_rmse_mm=err.edge_rmse_mm, surface_error=asdict(err))
-    if len(points):
-        _, distance, face = MeshProximity(truth).query(points)
-        cosines = np.clip(np.sum(normals * truth.face_normals[face], axis=1), -1.0, 1.0)
-        errors.update(coverage=contact_coverage(points, truth, COVERAGE_RADIUS_M),
-                      coverage_radius_m=COVERAGE_RADIUS_M,
-                      contact_normal_error_mean_deg=float(np.degrees(np.arccos(cosines)).mean()),
-                      contact_position_error_rms_mm=float(1e3 * np.sqrt(np.mean(distance ** 2))))
-    return errors
-
-
-def _plain(value):
-    """JSON-ready copy: numpy arrays and scalars as lists and Python numbers, paths as strings."""
-    if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, (np.floating, np.integer)):
-        return value.item()
-    if isinstance(value, Path):
-        return str(value)
-    return value

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from explorer.coverage import reachable_fraction
+from explorer.evaluation import jsonable, reconstruction_errors
 from explorer.loop import LOOP_SETTLING, ExplorationLoop, LoopConfig, TouchRecord
 from explorer.planner import ApproachPlanner, PlannerConfig
 from explorer.recording import RunRecorder
@@ -29,7 +30,7 @@ from explorer.simulation import build_scene
 from explorer.strategies import make_strategy
 from explorer.touch import ObjectPrior
 from reconstruction.gpis import GPIS
-from reconstruction.metrics import contact_coverage, surface_error
+from reconstruction.metrics import surface_error
 from sensor.contact_detection import PressureDetectorConfig
 from sensor.normal_estimation import SettlingConfig
 
@@ -37,8 +38,6 @@ from sensor.normal_estimation import SettlingConfig
 #: (a rough location and size; an over-estimate is safe).
 PRIOR_GROWTH = 0.1
 PRIOR_MARGIN_M = 0.01
-#: Contacts within this distance of a surface point count as covering it.
-COVERAGE_RADIUS_M = 0.01
 
 
 @dataclass
@@ -91,7 +90,7 @@ def explore(settings: RunSettings, out_dir: Path, progress=None) -> RunResult:
                              prior=dict(centre_m=prior.centre_m, half_extent_m=prior.half_extent_m))
         metadata = dict(robot=settings.robot, sensor="simulated BNO055 + BMP280 under polyurethane",
                         object=settings.object, seed=settings.seed,
-                        configuration=_jsonable(configuration), backend="simulation")
+                        configuration=jsonable(configuration), backend="simulation")
         recorder = RunRecorder(out_dir, metadata)
         loop = ExplorationLoop(scene.arm, scene.sensor, scene.kinematics, planner, scene.stand,
                                make_strategy(settings.strategy, settings.seed), prior, gpis,
@@ -148,23 +147,13 @@ def _finish(loop, gpis, truth, planner, prior, out_dir, recorder, settings, curv
             recorder.reconstruction(mesh, gpis.n_contacts, sim_time_s)
         except ValueError as exc:
             metrics["reconstruction_error"] = str(exc)
-    if mesh is not None:
-        err = surface_error(mesh, truth)
-        metrics.update(position_rmse_mm=err.position_rmse_mm, normal_rmse_deg=err.normal_rmse_deg,
-                       edge_rmse_mm=err.edge_rmse_mm, surface_error=_jsonable(asdict(err)))
     contacts = np.array([r.position_m for r in records if r.kind == "contact"]).reshape(-1, 3)
-    if len(contacts):
-        metrics["coverage"] = contact_coverage(contacts, truth, COVERAGE_RADIUS_M)
-        metrics["coverage_radius_m"] = COVERAGE_RADIUS_M
-        normals_true = _true_normals(truth, contacts)
-        measured = np.array([r.normal for r in records if r.kind == "contact"])
-        angles = np.degrees(np.arccos(np.clip(np.sum(measured * normals_true, 1), -1, 1)))
-        metrics["contact_normal_error_mean_deg"] = float(angles.mean())
-        metrics["contact_position_error_rms_mm"] = float(
-            1e3 * np.sqrt(np.mean(_distances(truth, contacts) ** 2)))
+    normals = np.array([r.normal for r in records if r.kind == "contact"]).reshape(-1, 3)
+    if mesh is not None:
+        metrics.update(reconstruction_errors(mesh, truth, contacts, normals))
     metrics["reachable_fraction"] = reachable_fraction(planner, truth, n_samples=48, seed=settings.seed)
     metrics["error_curve"] = [dict(touches=n, position_rmse_mm=p, normal_rmse_deg=a) for n, p, a in curve]
-    (out_dir / "metrics.json").write_text(json.dumps(_jsonable(metrics), indent=2))
+    (out_dir / "metrics.json").write_text(json.dumps(jsonable(metrics), indent=2))
     if mesh is not None:
         _plots(out_dir, gpis, mesh, truth, contacts, curve, settings)
     recorder.close(error)
@@ -182,30 +171,3 @@ def _plots(out_dir, gpis, mesh, truth, contacts, curve, settings) -> None:
     figures.potential_slice(gpis if settings.use_normals else None,
                             None if settings.use_normals else gpis, truth,
                             path=out_dir / "potential_slice.png")
-
-
-def _true_normals(mesh, points):
-    from objects.proximity import MeshProximity
-
-    _, _, face = MeshProximity(mesh).query(points)
-    return mesh.face_normals[face]
-
-
-def _distances(mesh, points):
-    from objects.proximity import MeshProximity
-
-    return MeshProximity(mesh).query(points)[1]
-
-
-def _jsonable(value):
-    if isinstance(value, dict):
-        return {k: _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, (np.floating, np.integer)):
-        return value.item()
-    if isinstance(value, Path):
-        return str(value)
-    return value

@@ -1,5 +1,4 @@
 """GPIS against closed forms (a sphere) and against itself (incremental vs refit, float32 vs float64)."""
-import warnings
 
 import numpy as np
 import pytest

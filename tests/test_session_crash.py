@@ -1,7 +1,6 @@
 """A run cut short (bytes chopped, process SIGKILLed) leaves a readable session; resume appends."""
 from __future__ import annotations
 
-import json
 import os
 import signal
 import subprocess

@@ -8,7 +8,6 @@ from bisect import bisect_left, bisect_right
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 
 from explorer.session.codec import (
     as_count,
