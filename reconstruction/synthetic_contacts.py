@@ -67,14 +67,10 @@ def sample_contacts(mesh, n: int, noise: ContactNoise = ContactNoise(), seed: in
     """
     if n < 1:
         raise ValueError(f"need at least one contact, got n={n}")
+    from objects.sampling import sample_surface
+
     rng = np.random.default_rng(seed)
-    face_area = mesh.area_faces / mesh.area_faces.sum()
-    faces = rng.choice(len(face_area), size=n, p=face_area)
-    uv = rng.random((n, 2))
-    flip = uv.sum(1) > 1
-    uv[flip] = 1 - uv[flip]
-    tri = mesh.triangles[faces]
-    true_points = tri[:, 0] + uv[:, :1] * (tri[:, 1] - tri[:, 0]) + uv[:, 1:] * (tri[:, 2] - tri[:, 0])
+    true_points, faces = sample_surface(mesh, n, rng)
     true_normals = mesh.face_normals[faces]
     tangent_a = np.cross(true_normals, rng.normal(size=(n, 3)))
     tangent_a /= np.linalg.norm(tangent_a, axis=1, keepdims=True)

@@ -67,3 +67,28 @@ class Robot(abc.ABC):
     @abc.abstractmethod
     def time_s(self) -> float:
         """The robot's clock, seconds (simulation time or host monotonic time)."""
+
+
+def checked_joint_positions(q, name: str, joint_names, lower_rad, upper_rad) -> np.ndarray:
+    """``q`` as a float array, or a ValueError naming every joint outside its limits.
+
+    Parameters
+    ----------
+    q : (dof,) float, radians
+    name : str
+        What ``q`` is, for the message (``"path[3]"``).
+    joint_names : sequence of str
+    lower_rad, upper_rad : (dof,) float
+    """
+    q = np.asarray(q, dtype=float)
+    dof = len(joint_names)
+    if q.shape != (dof,) or not np.all(np.isfinite(q)):
+        raise ValueError(f"{name} must be {dof} finite joint angles (rad), got shape {q.shape}")
+    outside = [
+        f"{joint} = {np.degrees(v):.2f} deg not in [{np.degrees(lo):.2f}, {np.degrees(hi):.2f}]"
+        for joint, v, lo, hi in zip(joint_names, q, lower_rad, upper_rad)
+        if not lo - 1e-9 <= v <= hi + 1e-9
+    ]
+    if outside:
+        raise ValueError(f"{name} is outside the joint limits: " + "; ".join(outside))
+    return q

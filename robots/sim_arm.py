@@ -15,7 +15,7 @@ from typing import Callable
 
 import numpy as np
 
-from robots.interface import GuardedMoveResult, MoveNotReachedError, Robot
+from robots.interface import GuardedMoveResult, MoveNotReachedError, Robot, checked_joint_positions
 from robots.pybullet_types import ContactPoint, JointInfo, JointState, LinkInertia, LinkState
 from robots.sim_world import SimWorld, import_pybullet
 from robots.spec import RobotSpec
@@ -382,17 +382,7 @@ class SimArm(Robot):
         return [JointState.from_pybullet(s) for s in raw]
 
     def _checked_q(self, q, name: str) -> np.ndarray:
-        q = np.asarray(q, dtype=float)
-        if q.shape != (self.dof,) or not np.all(np.isfinite(q)):
-            raise ValueError(f"{name} must be {self.dof} finite joint angles (rad), got shape {q.shape}")
-        outside = [
-            f"{joint} = {np.degrees(v):.2f} deg not in [{np.degrees(lo):.2f}, {np.degrees(hi):.2f}]"
-            for joint, v, lo, hi in zip(self.joint_names, q, self.lower_rad, self.upper_rad)
-            if not lo - 1e-9 <= v <= hi + 1e-9
-        ]
-        if outside:
-            raise ValueError(f"{name} is outside the joint limits: " + "; ".join(outside))
-        return q
+        return checked_joint_positions(q, name, self.joint_names, self.lower_rad, self.upper_rad)
 
     def _command(self, q: np.ndarray, qdot: np.ndarray) -> None:
         kp, kd = self._gains

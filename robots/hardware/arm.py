@@ -19,8 +19,7 @@ import numpy as np
 from robots.hardware.errors import RobotHardwareError
 from robots.hardware.joint_interface import JointInterface
 from robots.hardware.serial_joints import LinkStats, SerialJointInterface
-from robots.interface import GuardedMoveResult, Robot
-from robots.interface import MoveNotReachedError
+from robots.interface import GuardedMoveResult, MoveNotReachedError, Robot, checked_joint_positions
 from robots.spec import RobotSpec
 from robots.urdf_check import check_spec_against_urdf
 
@@ -184,17 +183,7 @@ class HardwareArm(Robot):
     # ---- internals ---------------------------------------------------------------------------
 
     def _checked_q(self, q, name: str) -> np.ndarray:
-        q = np.asarray(q, dtype=float)
-        if q.shape != (self.dof,) or not np.all(np.isfinite(q)):
-            raise ValueError(f"{name} must be {self.dof} finite joint angles (rad), got shape {q.shape}")
-        outside = [
-            f"{joint} = {np.degrees(v):.2f} deg not in [{np.degrees(lo):.2f}, {np.degrees(hi):.2f}]"
-            for joint, v, lo, hi in zip(self.joint_names, q, self.lower_rad, self.upper_rad)
-            if not lo - 1e-9 <= v <= hi + 1e-9
-        ]
-        if outside:
-            raise ValueError(f"{name} is outside the joint limits: " + "; ".join(outside))
-        return q
+        return checked_joint_positions(q, name, self.joint_names, self.lower_rad, self.upper_rad)
 
     def _follow(self, path: np.ndarray, stop: Callable[[], bool] | None, speed_rad_s: float,
                 operation: str) -> GuardedMoveResult:
