@@ -7,12 +7,19 @@ from serial.serialutil import PortNotOpenError, SerialBase, SerialException, to_
 
 
 class EmulatedSerial(SerialBase):
-    """Base for the ``<scheme>://`` handlers; subclasses set ``scheme`` and ``make_emulator``."""
+    """Base for the ``<scheme>://`` handlers; subclasses set ``scheme`` and ``make_emulator``
+    (and override ``emulator_for_url`` to read options from the URL)."""
 
     scheme = ""
 
     def make_emulator(self):
         raise NotImplementedError
+
+    def emulator_for_url(self, parts: urllib.parse.SplitResult):
+        """The emulator for this URL; the default accepts ``<scheme>://`` without options."""
+        if parts.netloc or parts.path or parts.query:
+            raise SerialException(f"expected the URL {self.scheme}:// (no options), got {self._port!r}")
+        return self.make_emulator()
 
     def open(self) -> None:
         if self.is_open:
@@ -20,9 +27,9 @@ class EmulatedSerial(SerialBase):
         if self._port is None:
             raise SerialException("port must be configured before it can be used")
         parts = urllib.parse.urlsplit(self._port)
-        if parts.scheme != self.scheme or parts.netloc or parts.path or parts.query:
-            raise SerialException(f"expected the URL {self.scheme}:// (no options), got {self._port!r}")
-        self.emulator = self.make_emulator()
+        if parts.scheme != self.scheme:
+            raise SerialException(f"expected a {self.scheme}:// URL, got {self._port!r}")
+        self.emulator = self.emulator_for_url(parts)
         self.emulator.disconnect_error = SerialException
         self.is_open = True
 
