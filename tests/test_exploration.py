@@ -4,19 +4,9 @@ import json
 
 import numpy as np
 import pytest
-import torch
 
 from explorer.recording import read_contacts_csv
 from explorer.run import RunSettings, explore
-
-
-@pytest.fixture(autouse=True, scope="module")
-def one_torch_thread():
-    """As the command line does: small tensors, no intra-op threads."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,6 @@ Targets with normals and default sensor noise, at most 100 touches (issue 4): bo
 sphere <= 0.5 mm, cylinder <= 3.2 mm, banana <= 1.8 mm position RMSE.
 """
 import pytest
-import torch
 
 from explorer.run import RunSettings, explore
 
@@ -14,6 +13,5 @@ TARGETS_MM = {"box": 2.7, "sphere": 0.5, "cylinder": 3.2, "banana": 1.8}
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(TARGETS_MM))
 def test_reference_object_reaches_its_target(name, tmp_path):
-    torch.set_num_threads(1)
     result = explore(RunSettings(object=name, touches=100, seed=0, eval_every=0), tmp_path)
     assert result.metrics["position_rmse_mm"] <= TARGETS_MM[name]

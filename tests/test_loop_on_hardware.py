@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import torch
 from scipy.spatial.transform import Rotation
 
 import robots
@@ -26,15 +25,6 @@ from sensor.sim.quaternion import rotation_from_wxyz
 
 RADIUS_M = 0.05
 AMBIENT_PA = 100_900.0
-
-
-@pytest.fixture
-def one_torch_thread():
-    """IK solves small systems: on a shared 2-core machine two torch threads contend (6x slower)."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,6 @@ import shutil
 
 import numpy as np
 import pytest
-import torch
 
 from explorer.recording import read_contacts_csv
 from explorer.replay import ReplaySettings, SessionReplay, press_spans, replay
@@ -14,13 +13,8 @@ from explorer.session import read_session
 
 @pytest.fixture(scope="module")
 def sphere_run(tmp_path_factory):
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        out = tmp_path_factory.mktemp("recorded")
-        yield explore(RunSettings(object="sphere", touches=5, seed=0, eval_every=0, mesh_resolution=32), out)
-    finally:
-        torch.set_num_threads(before)
+    out = tmp_path_factory.mktemp("recorded")
+    return explore(RunSettings(object="sphere", touches=5, seed=0, eval_every=0, mesh_resolution=32), out)
 
 
 @pytest.fixture(scope="module")

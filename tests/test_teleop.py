@@ -3,7 +3,6 @@ import json
 
 import numpy as np
 import pytest
-import torch
 from scipy.spatial.transform import Rotation
 
 from explorer.session import read_session
@@ -47,14 +46,9 @@ def operator_script(context, standoff_m=0.015, speed_mps=0.02, press_mps=0.01, d
 
 @pytest.fixture(scope="module")
 def teleop(tmp_path_factory):
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        out = tmp_path_factory.mktemp("teleop")
-        yield run_simulated_teleop("sphere", lambda ctx: ScriptedDevice(operator_script(ctx), ctx.clock),
-                                   out, gui=False)
-    finally:
-        torch.set_num_threads(before)
+    out = tmp_path_factory.mktemp("teleop")
+    return run_simulated_teleop("sphere", lambda ctx: ScriptedDevice(operator_script(ctx), ctx.clock),
+                                out, gui=False)
 
 
 def test_every_guided_touch_is_recorded_on_the_sphere(teleop):
