@@ -64,3 +64,16 @@ def test_an_interrupted_run_keeps_every_contact(tmp_path):
     assert len(points) == sum(r.kind == "contact" for r in seen) >= 1
     metrics = json.loads((tmp_path / "metrics.json").read_text())
     assert metrics["completed"] is False and metrics["touches"] == 3
+
+
+def test_report_redraws_the_figures_from_the_run_directory(sphere_run, tmp_path):
+    from explorer.report import write_report
+
+    paths = write_report(sphere_run.out_dir, tmp_path / "report")
+    names = {p.name for p in paths}
+    assert {"reconstruction_error.png", "potential_slice.png", "error_vs_touches.png",
+            "sensor_traces.png"} <= names
+    for p in paths:
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 5000
+    with pytest.raises(FileNotFoundError, match="not an exploration run"):
+        write_report(tmp_path)
