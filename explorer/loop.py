@@ -35,8 +35,12 @@ from sensor.contact_detection import PressureContactDetector
 from sensor.normal_estimation import (OrientationNotSettledError, SettlingConfig, estimate_normal,
                                        oriented_contact)
 from sensor.oriented_contact import OrientedContact
+from sensor.sim.pad_response import PadResponse
 from sensor.reading import Reading
 
+
+#: Pressure-to-force calibration of the pad (the simulated pad's; hardware calibration replaces it).
+PAD = PadResponse()
 
 #: The loop's settling test: the orientation within 0.5 deg over 0.15 s (IMU noise is ~0.1 deg).
 LOOP_SETTLING = dict(settle_window_s=0.15, max_deviation_rad=float(np.radians(0.5)))
@@ -371,7 +375,7 @@ class ExplorationLoop:
         rise = self._contact_readings[-1].pressure_pa - (self._baseline_pa or 0.0)
         pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
         travelled = float(np.linalg.norm(pad - start_pad_m))
-        return travelled >= self.config.press_depth_m or self._force_from_rise(rise) >= self.config.press_force_n
+        return travelled >= self.config.press_depth_m or PAD.force_estimate_n(rise) >= self.config.press_force_n
 
     def _settled_now(self) -> bool:
         """The orientation over the latest settling window is steady."""
@@ -386,13 +390,6 @@ class ExplorationLoop:
             return False
         return True
 
-    def _force_from_rise(self, rise_pa: float) -> float:
-        from sensor.sim.pad_response import PadResponse
-
-        pad = PadResponse()
-        return pad.force_n(min(max(rise_pa, 0.0), 0.999 * pad.saturation_pa))
-
-    # ------------------------------------------------------------------ model updates
     def _update_gpis(self, point: np.ndarray, normal: np.ndarray) -> None:
         t0 = time.perf_counter()
         first = self.gpis.n_contacts == 0

@@ -165,3 +165,13 @@ def test_bad_settings_are_refused_by_name(kwargs, word):
         BMP280Config(**kwargs)
     with pytest.raises(ValueError, match="pressure_random_walk"):
         BMP280Noise(pressure_random_walk_pa_per_sqrt_s=-1.0)
+
+
+def test_force_estimate_clips_outside_the_invertible_range():
+    from sensor.sim.pad_response import PadResponse
+
+    pad = PadResponse()
+    assert pad.force_estimate_n(-50.0) == 0.0
+    assert pad.force_estimate_n(pad.pressure_rise_pa(1.2)) == pytest.approx(1.2)
+    saturated = pad.force_estimate_n(10 * pad.saturation_pa)
+    assert saturated == pytest.approx(pad.force_n(0.999 * pad.saturation_pa))

@@ -17,7 +17,7 @@ from typing import Callable
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from explorer.loop import LoopConfig, Recorder, TouchRecord
+from explorer.loop import LOOP_SETTLING, PAD, LoopConfig, Recorder, TouchRecord
 from explorer.positioner import Positioner
 from explorer.strategies import ExplorationState, VarianceStrategy
 from explorer.teleop.devices import InputDevice, TeleopCommand
@@ -128,7 +128,7 @@ class TeleopSession:
         self.config = config
         self.on_update = on_update
         self.detector = detector or PressureContactDetector()
-        self.settling = settling or SettlingConfig(settle_window_s=0.15, max_deviation_rad=np.radians(0.5))
+        self.settling = settling or SettlingConfig(**LOOP_SETTLING)
         self.gpis = GPIS(bounds=prior.bounds())
         self.strategy = VarianceStrategy()
         self.contacts: list[TeleopContact] = []
@@ -236,7 +236,7 @@ class TeleopSession:
                 self.recorder.event("contact_end", event.t_s)
             if self._press is not None:
                 self._press.readings.append(reading)
-                self._force_n = _force_from_rise(reading.pressure_pa - self._press.baseline_pa)
+                self._force_n = PAD.force_estimate_n(reading.pressure_pa - self._press.baseline_pa)
         self._rest_readings.extend(readings)
         return False
 
@@ -292,9 +292,3 @@ def _clip_norm(vector: np.ndarray, limit: float) -> np.ndarray:
     return vector * (limit / norm) if norm > limit else np.array(vector, float)
 
 
-def _force_from_rise(rise_pa: float) -> float:
-    """Pad force of a pressure rise (the simulated pad's calibration, as the loop uses)."""
-    from sensor.sim.pad_response import PadResponse
-
-    pad = PadResponse()
-    return pad.force_n(min(max(rise_pa, 0.0), 0.999 * pad.saturation_pa))

@@ -70,6 +70,11 @@ class PadResponse:
             raise ValueError(f"force_n must be finite and >= 0 N, got {force_n!r}")
         return self.saturation_pa * -np.expm1(-force / self.force_scale_n)
 
+    def force_estimate_n(self, pressure_rise_pa: float) -> float:
+        """Force for a measured rise, clipped into the invertible range (a negative rise is 0 N;
+        a saturated one reads as the force at 99.9 % of saturation)."""
+        return float(self.force_n(min(max(float(pressure_rise_pa), 0.0), 0.999 * self.saturation_pa)))
+
     def force_n(self, pressure_rise_pa):
         """Invert the steady-state curve: the force that produces a pressure rise.
 
