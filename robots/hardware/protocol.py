@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sensor.drivers.sentences import SentenceError, checksum, frame, unframe  # noqa: F401 (checksum re-exported)
+
 SEQ_MODULO = 65536
 MAX_FRAME_BYTES = 512
 ANGLE_DECIMALS = 6
@@ -75,18 +77,9 @@ class FrameError(ValueError):
         self.kind = kind
 
 
-def checksum(body: bytes) -> int:
-    """XOR of all bytes (the NMEA 0183 checksum)."""
-    value = 0
-    for byte in body:
-        value ^= byte
-    return value
-
-
 def encode_frame(fields: list[str]) -> bytes:
     """``$<fields joined by ','>*<CS>\\r\\n``."""
-    body = ",".join(fields).encode("ascii")
-    return b"$" + body + b"*" + f"{checksum(body):02X}".encode("ascii") + b"\r\n"
+    return frame(",".join(fields))
 
 
 def decode_frame(line: bytes) -> list[str]:
@@ -94,26 +87,10 @@ def decode_frame(line: bytes) -> list[str]:
 
     Noise before the frame on the same line is ignored: parsing starts at the last ``$``.
     """
-    line = line.rstrip(b"\r\n")
-    start = line.rfind(b"$")
-    if start < 0:
-        raise FrameError("malformed", "no '$' start marker")
-    star = line.rfind(b"*")
-    if star < start:
-        raise FrameError("malformed", "no '*' checksum marker")
-    body, given = line[start + 1:star], line[star + 1:]
     try:
-        expected = int(given.decode("ascii"), 16) if len(given) == 2 else -1
-    except (UnicodeDecodeError, ValueError):
-        expected = -1
-    if expected < 0:
-        raise FrameError("malformed", f"checksum field {given!r} is not two hex digits")
-    if checksum(body) != expected:
-        raise FrameError("checksum", f"checksum {expected:02X} given, {checksum(body):02X} computed")
-    try:
-        return body.decode("ascii").split(",")
-    except UnicodeDecodeError:
-        raise FrameError("malformed", "non-ASCII bytes") from None
+        return unframe(line).split(",")
+    except SentenceError as error:
+        raise FrameError(error.kind, str(error)) from None
 
 
 def format_angles(q: np.ndarray) -> list[str]:

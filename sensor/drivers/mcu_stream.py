@@ -17,6 +17,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from sensor.drivers.sentences import SentenceError, checksum, frame, unframe  # noqa: F401 (checksum re-exported)
 from sensor.drivers.device_clock import DeviceClockMapper
 from sensor.drivers.errors import DeviceDisconnectedError
 
@@ -67,14 +68,6 @@ class LineError(ValueError):
         self.kind = kind
 
 
-def checksum(body: bytes) -> int:
-    """XOR of all bytes (NMEA 0183 style)."""
-    value = 0
-    for byte in body:
-        value ^= byte
-    return value
-
-
 def encode_record(record: StreamRecord) -> bytes:
     """The line a microcontroller sends for ``record`` (reference encoder for firmware and tests)."""
     values = [f"{record.pressure_pa:.2f}", f"{record.temperature_c:.2f}"]
@@ -85,8 +78,7 @@ def encode_record(record: StreamRecord) -> bytes:
 
 def frame_sentence(body: str) -> bytes:
     """``$<body>*<CS>\\r\\n``."""
-    raw = body.encode("ascii")
-    return b"$" + raw + b"*" + f"{checksum(raw):02X}".encode("ascii") + b"\r\n"
+    return frame(body)
 
 
 def parse_line(line: bytes) -> StreamRecord | str:
@@ -96,26 +88,10 @@ def parse_line(line: bytes) -> StreamRecord | str:
     :class:`LineError` with ``kind`` in {"checksum_errors", "malformed", "implausible",
     "unknown_sentences"} otherwise.
     """
-    line = line.rstrip(b"\r")
-    start = line.rfind(b"$")
-    if start < 0:
-        raise LineError("malformed", "no '$' start marker")
-    star = line.rfind(b"*")
-    if star < start:
-        raise LineError("malformed", "no '*' checksum marker")
-    body, given = line[start + 1:star], line[star + 1:]
     try:
-        expected = int(given.decode("ascii"), 16) if len(given) == 2 else -1
-    except (UnicodeDecodeError, ValueError):
-        expected = -1
-    if expected < 0:
-        raise LineError("malformed", f"checksum field {given!r} is not two hex digits")
-    if checksum(body) != expected:
-        raise LineError("checksum_errors", f"checksum {expected:02X} given, {checksum(body):02X} computed")
-    try:
-        text = body.decode("ascii")
-    except UnicodeDecodeError:
-        raise LineError("malformed", "non-ASCII bytes") from None
+        text = unframe(line)
+    except SentenceError as error:
+        raise LineError("checksum_errors" if error.kind == "checksum" else "malformed", str(error)) from None
     kind, _, rest = text.partition(",")
     if kind == INFO_SENTENCE:
         return rest
