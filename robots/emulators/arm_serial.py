@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 from robots.emulators.arm_controller import EmulatedArmController
 from robots.hardware.protocol import ControllerStatus
+from sensor.emulators.fake_port import FakeSerialPort
 
 #: Noise put before a reply by ArmFault.GARBAGE: start and checksum markers followed by bytes that
 #: cannot complete a frame, then a newline, to exercise resynchronisation.
@@ -111,7 +112,7 @@ def _command_of(line: bytes) -> str | None:
     return name.decode("ascii", "replace")
 
 
-class FakeArmSerial:
+class FakeArmSerial(FakeSerialPort):
     """pyserial-like port to an emulated controller.
 
     Each complete request line written is answered at once into the receive buffer (faults
@@ -137,35 +138,20 @@ class FakeArmSerial:
     """
 
     disconnect_error: type[Exception] = ArmPortDisconnectedError
+    disconnect_fault = ArmFault.DISCONNECT
 
     def __init__(self, controller: EmulatedArmController, *, clock=None, timeout: float = 0.01,
                  port: str = "armemu://", garbage: bytes = DEFAULT_GARBAGE):
+        super().__init__(clock, timeout)
         self.controller = controller
-        self.clock = clock
-        self.timeout = timeout
         self.port = port
         self.garbage = garbage
         self.faults = ArmFaultInjector()
         self.requests: list[bytes] = []
-        self.is_open = True
         self._from_host = bytearray()
-        self._to_host = bytearray()
         self._delayed: list[bytes] = []
 
     # ---- pyserial surface --------------------------------------------------------------------
-
-    @property
-    def in_waiting(self) -> int:
-        self._check_connected()
-        return len(self._to_host)
-
-    def read(self, size: int = 1) -> bytes:
-        self._check_connected()
-        data = bytes(self._to_host[:size])
-        del self._to_host[:size]
-        if len(data) < size and self.clock is not None:
-            self.clock.advance(self.timeout)
-        return data
 
     def write(self, data: bytes) -> int:
         self._check_connected()
@@ -177,31 +163,7 @@ class FakeArmSerial:
             self._answer(line)
         return len(data)
 
-    def queue_bytes(self, data: bytes) -> None:
-        """Put raw bytes in the receive buffer (a boot banner, line noise)."""
-        self._to_host += bytes(data)
-
-    def reset_input_buffer(self) -> None:
-        self._check_connected()
-        self._to_host.clear()
-
-    def reset_output_buffer(self) -> None:
-        self._check_connected()
-
-    def flush(self) -> None:
-        self._check_connected()
-
-    def close(self) -> None:
-        self.is_open = False
-
     # ---- behaviour ---------------------------------------------------------------------------
-
-    def _check_connected(self) -> None:
-        if self.faults.permanent is ArmFault.DISCONNECT:
-            raise self.disconnect_error("device reports readiness to read but returned no data "
-                                        "(device disconnected or multiple access on port?)")
-        if not self.is_open:
-            raise self.disconnect_error("port is closed")
 
     def _answer(self, line: bytes) -> None:
         fault = self.faults.take(_command_of(line))

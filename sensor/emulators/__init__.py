@@ -12,7 +12,8 @@ without hardware, with injectable faults:
 """
 from sensor.emulators.bmp280_chip import BMP280Chip
 from sensor.emulators.bno055_chip import BNO055Chip
-from sensor.emulators.bno055_serial import FakeBNO055Serial, PortDisconnectedError
+from sensor.emulators.bno055_serial import FakeBNO055Serial
+from sensor.emulators.fake_port import FakeSerialPort, PortDisconnectedError
 from sensor.emulators.clock import FakeClock
 from sensor.emulators.fake_smbus import FakeSMBus
 from sensor.emulators.faults import Fault, FaultInjector
@@ -20,5 +21,5 @@ from sensor.emulators.mcu_serial import FakeMicrocontrollerSerial
 from sensor.emulators.serial_urls import register_serial_url_handlers
 
 __all__ = ["BMP280Chip", "BNO055Chip", "FakeSMBus", "FakeBNO055Serial", "FakeMicrocontrollerSerial",
-           "FakeClock", "Fault", "FaultInjector", "PortDisconnectedError",
+           "FakeClock", "FakeSerialPort", "Fault", "FaultInjector", "PortDisconnectedError",
            "register_serial_url_handlers"]

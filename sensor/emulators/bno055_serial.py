@@ -4,6 +4,7 @@ from __future__ import annotations
 from sensor.emulators.bno055_chip import BNO055Chip
 from sensor.emulators.clock import FakeClock
 from sensor.emulators.fake_smbus import ChipBusy
+from sensor.emulators.fake_port import FakeSerialPort
 from sensor.emulators.faults import Fault, FaultInjector
 
 #: Noise injected by Fault.GARBAGE; it contains both reply headers (0xBB, 0xEE) followed by
@@ -11,11 +12,7 @@ from sensor.emulators.faults import Fault, FaultInjector
 DEFAULT_GARBAGE = bytes([0x00, 0xBB, 0x7F, 0xEE, 0x99, 0x55, 0xFF, 0xEE])
 
 
-class PortDisconnectedError(OSError):
-    """What the emulated port raises once disconnected (pyserial raises SerialException)."""
-
-
-class FakeBNO055Serial:
+class FakeBNO055Serial(FakeSerialPort):
     """pyserial-like port with a BNO055 behind it.
 
     Each complete request frame written is answered at once into the receive buffer. A read
@@ -40,34 +37,18 @@ class FakeBNO055Serial:
         Every complete request frame received.
     """
 
-    disconnect_error: type[Exception] = PortDisconnectedError
+    disconnect_fault = Fault.DISCONNECT
 
     def __init__(self, chip: BNO055Chip | None = None, *, clock: FakeClock | None = None,
                  timeout: float = 0.02, garbage: bytes = DEFAULT_GARBAGE):
+        super().__init__(clock, timeout)
         self.chip = chip if chip is not None else BNO055Chip(clock=clock.monotonic if clock else None)
-        self.clock = clock
-        self.timeout = timeout
         self.garbage = garbage
         self.faults = FaultInjector()
         self.requests: list[bytes] = []
-        self.is_open = True
         self._from_host = bytearray()
-        self._to_host = bytearray()
 
     # -- pyserial surface -------------------------------------------------------------------
-
-    @property
-    def in_waiting(self) -> int:
-        self._check_connected()
-        return len(self._to_host)
-
-    def read(self, size: int = 1) -> bytes:
-        self._check_connected()
-        data = bytes(self._to_host[:size])
-        del self._to_host[:size]
-        if len(data) < size and self.clock is not None:
-            self.clock.advance(self.timeout)
-        return data
 
     def write(self, data: bytes) -> int:
         self._check_connected()
@@ -75,24 +56,7 @@ class FakeBNO055Serial:
         self._process()
         return len(data)
 
-    def reset_input_buffer(self) -> None:
-        self._check_connected()
-        self._to_host.clear()
-
-    def flush(self) -> None:
-        self._check_connected()
-
-    def close(self) -> None:
-        self.is_open = False
-
     # -- protocol ---------------------------------------------------------------------------
-
-    def _check_connected(self) -> None:
-        if self.faults.permanent is Fault.DISCONNECT:
-            raise self.disconnect_error("device reports readiness to read but returned no data "
-                                        "(device disconnected or multiple access on port?)")
-        if not self.is_open:
-            raise self.disconnect_error("port is closed")
 
     def _process(self) -> None:
         while self._from_host:

@@ -4,12 +4,12 @@ from __future__ import annotations
 import numpy as np
 
 from sensor.drivers.mcu_stream import StreamRecord, encode_record, frame_sentence
-from sensor.emulators.bno055_serial import PortDisconnectedError
+from sensor.emulators.fake_port import FakeSerialPort
 from sensor.emulators.clock import FakeClock
 from sensor.emulators.faults import Fault, FaultInjector
 
 
-class FakeMicrocontrollerSerial:
+class FakeMicrocontrollerSerial(FakeSerialPort):
     """pyserial-like port whose input is whatever the test queues.
 
     Parameters
@@ -26,14 +26,11 @@ class FakeMicrocontrollerSerial:
         checked once per read.
     """
 
-    disconnect_error: type[Exception] = PortDisconnectedError
+    disconnect_fault = Fault.DISCONNECT
 
     def __init__(self, *, clock: FakeClock | None = None, timeout: float = 0.02):
-        self.clock = clock
-        self.timeout = timeout
+        super().__init__(clock, timeout)
         self.faults = FaultInjector()
-        self.is_open = True
-        self._to_host = bytearray()
 
     def queue_sample(self, t_ms: int, pressure_pa: float = 101325.0, temperature_c: float = 25.0,
                      quat_wxyz=(1.0, 0.0, 0.0, 0.0), lin_acc_mps2=(0.0, 0.0, 0.0),
@@ -46,10 +43,6 @@ class FakeMicrocontrollerSerial:
 
     def queue_info(self, text: str) -> None:
         self._to_host += frame_sentence(f"I,{text}")
-
-    def queue_bytes(self, data: bytes) -> None:
-        """Queue raw bytes (noise, corrupted or partial lines)."""
-        self._to_host += bytes(data)
 
     @property
     def in_waiting(self) -> int:
@@ -74,15 +67,3 @@ class FakeMicrocontrollerSerial:
         self._check_connected()
         return len(data)
 
-    def reset_input_buffer(self) -> None:
-        self._to_host.clear()
-
-    def close(self) -> None:
-        self.is_open = False
-
-    def _check_connected(self) -> None:
-        if self.faults.permanent is Fault.DISCONNECT:
-            raise self.disconnect_error("device reports readiness to read but returned no data "
-                                        "(device disconnected or multiple access on port?)")
-        if not self.is_open:
-            raise self.disconnect_error("port is closed")
