@@ -115,13 +115,18 @@ def _stop_workers(pool: ProcessPoolExecutor) -> None:
         return
     # Before 3.14 the pool has no public way; a worker would otherwise go on with the runs
     # already handed to it (an unfinished run is redone from scratch on restart anyway).
-    # Taken before shutdown, which forgets them.
     processes = list((getattr(pool, "_processes", None) or {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
     for process in processes:
         process.terminate()
+    # The pool's manager thread sees its workers die and reaps them. Waiting for it means no
+    # thread is still half-way through reaping a worker when this returns (a worker reaped by
+    # the other thread would otherwise look alive to multiprocessing.active_children()).
+    pool.shutdown(wait=True, cancel_futures=True)
     for process in processes:
         process.join(timeout=10)
+        if process.is_alive():
+            process.kill()
+            process.join()
 
 
 def run_on_ray(jobs: Sequence[RunJob], address: str, workers: int, on_done: OnDone) -> list[RunOutcome]:
