@@ -8,6 +8,12 @@ with ``press_force_n``. Contacts come from the same :class:`PressureContactDetec
 or pressing at the force limit) and its orientation has settled, the contact is recorded, added
 to the GPIS, and the most uncertain surface point (``VarianceStrategy.surface_variance``) becomes
 the suggested next touch. Everything goes through the loop's :class:`Recorder` (session format).
+
+One detector watches the whole stream and is never reset (the operator, not the framework,
+decides where a press begins). A recorded contact uses the readings of the press in progress
+that arrived after the pad came to rest, ``rest_since < t <= record time``; the touch event
+stores that span as ``press_t_s`` and a joint state is logged at the record time, so
+``tactile-reconstruct`` can detect the contact again from the raw stream (explorer/replay.py).
 """
 from __future__ import annotations
 
@@ -135,7 +141,9 @@ class TeleopSession:
         self.suggestion_m: np.ndarray | None = None
         self._press: _Press | None = None
         self._force_n = 0.0
-        self._rest_readings: list[Reading] = []  # readings since the pad last came to rest
+        # The pad has been at rest since this time: readings after it may form the contact.
+        self._rest_since_s = float(robot.time_s())
+        self._joint_state_t_s: float | None = None  # time of the last logged joint state
         self._q_ref: np.ndarray | None = None
         self._pose_ref: tuple[np.ndarray, Rotation] | None = None
 
@@ -160,12 +168,13 @@ class TeleopSession:
             self._q_ref = self._pose_ref = None
             self.robot.hold(self.config.control_period_s, stop=lambda: self._watch() or self.robot.time_s() >= deadline)
         else:
-            self._rest_readings = []
+            self._rest_since_s = float(self.robot.time_s())
             q_next = self._integrate(linear, angular)
             step = float(np.max(np.abs(q_next - self.robot.joint_positions())))
             speed = min(max(step / self.config.control_period_s, 1e-3), self.config.joint_speed_rad_s)
             self.robot.guarded_move(q_next[None], speed_rad_s=speed,
                                     stop=lambda: self._watch() or self.robot.time_s() >= deadline)
+        self._watch()  # the last control tick's readings: a rest ends with nothing left to read
         self._maybe_record()
 
     def snapshot(self):
@@ -225,6 +234,7 @@ class TeleopSession:
         t_s = self.robot.time_s()
         self.recorder.readings(readings)
         self.recorder.joint_state(t_s, self.robot.joint_positions())
+        self._joint_state_t_s = t_s
         for reading in readings:
             event = self.detector.update(reading)
             if event is not None and event.kind == "start":
@@ -237,7 +247,6 @@ class TeleopSession:
             if self._press is not None:
                 self._press.readings.append(reading)
                 self._force_n = PAD.force_estimate_n(reading.pressure_pa - self._press.baseline_pa)
-        self._rest_readings.extend(readings)
         return False
 
     def _maybe_record(self) -> None:
@@ -245,9 +254,10 @@ class TeleopSession:
         press = self._press
         if press is None or press.recorded or self._q_ref is not None:
             return
-        resting = [r for r in self._rest_readings if r.t_s >= press.readings[0].t_s] if press.readings else []
+        resting = [r for r in press.readings if r.t_s > self._rest_since_s]
         if len(resting) < 2 or resting[-1].t_s - resting[0].t_s < self.settling.settle_window_s:
             return
+        t_s = float(self.robot.time_s())
         q = self.robot.joint_positions()
         pivot = self.kin.forward_kinematics(q, link=self.kin.spec.pivot_link).position_m
         try:
@@ -256,9 +266,12 @@ class TeleopSession:
         except (OrientationNotSettledError, ValueError):
             return  # not settled yet (or saturated): try again next period
         press.recorded = True
-        self._record(contact, self.kin.forward_kinematics(q).z_axis)
+        if self._joint_state_t_s != t_s:  # replay takes the pose from the joint state at t_s
+            self.recorder.joint_state(t_s, q)
+            self._joint_state_t_s = t_s
+        self._record(contact, self.kin.forward_kinematics(q).z_axis, (self._rest_since_s, t_s))
 
-    def _record(self, contact, pad_axis_world: np.ndarray) -> None:
+    def _record(self, contact, pad_axis_world: np.ndarray, press_t_s: tuple[float, float]) -> None:
         surface = contact.position_m + contact.normal * contact.force_n * self.config.pad_compliance_m_per_n
         p_obj, n_obj = self.positioner.to_object(surface[None], contact.normal[None])
         _, axis_obj = self.positioner.to_object(np.zeros((1, 3)), pad_axis_world[None])
@@ -266,7 +279,8 @@ class TeleopSession:
         normal = n_obj[0] / np.linalg.norm(n_obj[0])
         index = len(self.contacts)
         record = TouchRecord(index, "contact", p_obj[0], axis_obj[0], pose.yaw_rad, pose.tilt_rad,
-                             contact=contact, position_m=p_obj[0], normal=normal, t_s=contact.t_s)
+                             contact=contact, position_m=p_obj[0], normal=normal, t_s=contact.t_s,
+                             press_t_s=press_t_s)
         self.recorder.touch(record)
         teleop_contact = TeleopContact(index, p_obj[0], normal, contact)
         self.contacts.append(teleop_contact)
