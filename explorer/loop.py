@@ -122,6 +122,8 @@ class TouchRecord:
     normal: np.ndarray | None = None  # object frame
     t_s: float = 0.0
     press_t_s: tuple[float, float] | None = None  # detector reset .. end of the hold (replay)
+    strategy: str = ""  # the strategy that proposed the touch ("realign" for a repeat)
+    free_space_m: np.ndarray | None = None  # (k, 3) points a missed approach swept, object frame
 
 
 @dataclass
@@ -236,12 +238,48 @@ class ExplorationLoop:
             record = TouchRecord(index, "unreachable",
                                  np.zeros(3) if touch is None else touch.target_m,
                                  np.zeros(3) if touch is None else touch.approach_dir,
-                                 t_s=self.robot.time_s())
+                                 t_s=self.robot.time_s(), strategy="" if touch is None else touch.strategy)
             return self._finish(record)
         if hasattr(self.strategy, "accepted") and plan.touch.strategy != "realign":
             self.strategy.accepted(plan.touch)
         self.state.tried_m.append(plan.touch.target_m)
-        return self._finish(self._execute(plan, index))
+        record = self._execute(plan, index)
+        record.strategy = plan.touch.strategy
+        return self._finish(record)
+
+    def restore(self, records: list[TouchRecord]) -> None:
+        """Continue a run from the touches it recorded before it stopped (see ``explorer.resume``).
+
+        Replays their effect in the original order: the touch count, the tried and unreachable
+        targets, the strategy's bookkeeping, the GPIS (contacts and the free space of misses, so
+        the field equals the one the run had) and a realign repeat still owed. Targets the planner
+        rejected on the way to an accepted touch were not recorded, so the strategy may propose
+        them again.
+        """
+        if self.records or self.gpis.n_contacts:
+            raise RuntimeError("restore() must be called on a fresh loop, before any touch")
+        for expected, record in enumerate(records):
+            if record.index != expected:
+                raise ValueError(f"recorded touches must be numbered 0, 1, ... in order; touch {expected} "
+                                 f"is numbered {record.index}")
+            self.records.append(record)
+            self.state.touches += 1
+            if record.kind == "unreachable":
+                self.state.unreachable_m.append(record.target_m)
+                continue
+            self.state.tried_m.append(record.target_m)
+            if record.kind == "blocked":
+                self.state.unreachable_m.append(record.target_m)
+            if hasattr(self.strategy, "accepted") and record.strategy and record.strategy != "realign":
+                self.strategy.accepted(Touch(record.target_m, record.approach_dir, strategy=record.strategy))
+            if record.kind == "contact":
+                self._update_gpis(record.position_m, record.normal)
+            elif record.kind == "miss" and record.free_space_m is not None:
+                self._add_free_space(record.free_space_m)
+        if records and records[-1].kind == "realign":
+            last = records[-1]
+            self._follow_up = Touch(last.position_m, -last.normal, strategy="realign",
+                                    depth_m=self.planner.config.depth_m)
 
     # ------------------------------------------------------------------ one touch
     def _execute(self, plan: ApproachPlan, index: int) -> TouchRecord:
@@ -282,7 +320,8 @@ class ExplorationLoop:
         if record.kind == "contact":
             self._update_gpis(record.position_m, record.normal)
         elif record.kind == "miss":
-            self._add_free_space(plan)
+            record.free_space_m = self._free_space_points(plan)
+            self._add_free_space(record.free_space_m)
         return record
 
     def _transfer(self, q: np.ndarray) -> bool:
@@ -399,12 +438,16 @@ class ExplorationLoop:
             self._pending_free_space = []
         self.times.gpis_s += time.perf_counter() - t0
 
-    def _add_free_space(self, plan: ApproachPlan) -> None:
-        """The swept approach line (object frame) is outside the object."""
+    def _free_space_points(self, plan: ApproachPlan) -> np.ndarray:
+        """(k, 3) points of the swept approach line inside the GPIS bounds, object frame."""
         points = self.positioner.to_object(plan.path_world_m)
         lo, hi = self.gpis.bounds if self.gpis.bounds is not None else (None, None)
         if lo is not None:
             points = points[np.all((points > lo) & (points < hi), axis=1)]
+        return points
+
+    def _add_free_space(self, points: np.ndarray) -> None:
+        """The swept points (object frame) are outside the object."""
         if not len(points):
             return
         if self.gpis.n_contacts == 0:

@@ -3,9 +3,15 @@
 Every contact is appended (and fsynced) to ``contacts.csv`` in the object frame the moment it is
 recorded, and the raw stream goes to the session directory (:mod:`explorer.session`), so a run
 killed halfway keeps every contact it made.
+
+A resumed run (:mod:`explorer.resume`) appends to the same files. Its devices' clocks usually
+start again from zero, so the recorder adds ``time_offset_s`` to every time it writes: the session
+clock goes on from where the stopped part ended and stays non-decreasing.
 """
 from __future__ import annotations
 
+import dataclasses
+import math
 import os
 from pathlib import Path
 
@@ -26,13 +32,20 @@ class RunRecorder(Recorder):
     metadata : dict
         Session metadata (robot, sensor, object, seed, configuration).
     resume : bool
-        Append to an existing run instead of refusing to overwrite it.
+        Append to the run already in ``out_dir`` instead of refusing to overwrite it; the
+        stored session metadata is kept (``metadata`` is then not checked against it).
+    time_offset_s : float
+        Added to every time written (device clock -> session clock), seconds.
     """
 
-    def __init__(self, out_dir: Path, metadata: dict, resume: bool = False):
+    def __init__(self, out_dir: Path, metadata: dict, resume: bool = False, time_offset_s: float = 0.0):
+        if not math.isfinite(time_offset_s):
+            raise ValueError(f"time_offset_s must be finite, got {time_offset_s!r}")
         self.out_dir = Path(out_dir)
         self.out_dir.mkdir(parents=True, exist_ok=True)
-        self.session = SessionWriter(self.out_dir / "session", metadata, resume=resume)
+        self.time_offset_s = float(time_offset_s)
+        self.latest_time_s = 0.0  # the latest device time handed to the recorder, seconds
+        self.session = SessionWriter(self.out_dir / "session", None if resume else metadata, resume=resume)
         path = self.out_dir / "contacts.csv"
         fresh = not path.exists() or not resume
         self._contacts = open(path, "w" if fresh else "a", encoding="utf-8")
@@ -42,35 +55,57 @@ class RunRecorder(Recorder):
 
     def readings(self, readings) -> None:
         for reading in readings:
-            self.session.write_reading(reading)
+            self.session.write_reading(self._shifted(reading))
+            self._saw(reading.t_s)
 
     def joint_state(self, t_s: float, q: np.ndarray) -> None:
-        self.session.write_joint_state(t_s, q)
+        self.session.write_joint_state(t_s + self.time_offset_s, q)
+        self._saw(t_s)
 
     def touch(self, record: TouchRecord) -> None:
         kind = "touch" if record.kind == "contact" else ("miss" if record.kind == "miss" else record.kind)
         fields = dict(target_m=record.target_m.tolist(), approach_dir=record.approach_dir.tolist(),
-                      index=record.index, result=record.kind,
+                      index=record.index, result=record.kind, strategy=record.strategy,
                       stand_yaw_rad=record.stand_yaw_rad, stand_tilt_rad=record.stand_tilt_rad)
         if record.press_t_s is not None:
-            fields["press_t_s"] = list(record.press_t_s)
+            fields["press_t_s"] = [t + self.time_offset_s for t in record.press_t_s]
         if record.position_m is not None:  # also for contacts set aside for a realign touch
             fields.update(position_m=record.position_m.tolist(), normal=record.normal.tolist())
-        self.session.write_event(kind, record.t_s, **fields)
+        if record.contact is not None:
+            fields["force_n"] = record.contact.force_n
+        if record.free_space_m is not None:
+            fields["free_space_m"] = np.asarray(record.free_space_m).tolist()
+        self.session.write_event(kind, record.t_s + self.time_offset_s, **fields)
+        self._saw(record.t_s)
         if record.kind != "contact":
             return
-        self.session.write_contact(record.contact)
-        values = [*record.position_m, *record.normal, record.contact.t_s, record.contact.force_n,
+        contact = self._shifted_contact(record.contact)
+        self.session.write_contact(contact)
+        values = [*record.position_m, *record.normal, contact.t_s, contact.force_n,
                   record.stand_yaw_rad, record.stand_tilt_rad]
-        # repr of a Python float round-trips exactly
-        self._contacts.write(f"{record.index}," + ",".join(repr(float(v)) for v in values) + "\n")
+        self._contacts.write(contacts_csv_row(record.index, values))
         self._flush()
 
     def event(self, kind: str, t_s: float, **fields) -> None:
-        self.session.write_event(kind, t_s, **fields)
+        self.session.write_event(kind, t_s + self.time_offset_s, **fields)
+        self._saw(t_s)
 
     def reconstruction(self, mesh, n_contacts: int, t_s: float) -> None:
-        self.session.write_reconstruction(mesh, n_contacts, t_s)
+        self.session.write_reconstruction(mesh, n_contacts, t_s + self.time_offset_s)
+
+    def _saw(self, t_s: float) -> None:
+        self.latest_time_s = max(self.latest_time_s, float(t_s))
+
+    def _shifted(self, reading):
+        if not self.time_offset_s:
+            return reading
+        return dataclasses.replace(reading, t_s=reading.t_s + self.time_offset_s)
+
+    def _shifted_contact(self, contact):
+        if not self.time_offset_s:
+            return contact
+        return dataclasses.replace(contact, t_s=contact.t_s + self.time_offset_s,
+                                   readings=tuple(self._shifted(r) for r in contact.readings))
 
     def close(self, error: BaseException | None = None) -> None:
         if not self._contacts.closed:
@@ -81,6 +116,11 @@ class RunRecorder(Recorder):
     def _flush(self) -> None:
         self._contacts.flush()
         os.fsync(self._contacts.fileno())
+
+
+def contacts_csv_row(index: int, values) -> str:
+    """One ``contacts.csv`` line (``repr`` of a Python float round-trips exactly)."""
+    return f"{index}," + ",".join(repr(float(v)) for v in values) + "\n"
 
 
 def read_contacts_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
