@@ -7,13 +7,28 @@ encoders, carries it into the object frame with the stand angles of its touch ev
 with new settings and writes what an exploration run writes (``contacts.csv``,
 ``reconstruction.ply``, ``metrics.json``, figures).
 
-Where a press begins and ends is not an event in the session; it is read from the joint-state
-stream. The loop logs one joint state per poll of the sensor, and it polls every control tick only
+Which readings belong to a touch. Each touch event that pressed carries ``press_t_s = [t0, t1]``:
+the press is the readings with ``t0 < t <= t1`` and its pose is the last joint state at or before
+``t1``. Replay does not copy the recorded contacts: it re-runs the detector over the raw stream
+and keeps the recorded spans, which say where the *arm* was pressing (the loop's motion, or where
+the operator held the pad still), not what the detector decided. How the detector sees the stream
+follows the run:
+
+* **Autonomous** runs reset the detector when the arm arrives at the standoff, so replay resets it
+  at ``t0`` and feeds it the press's readings; the contact runs from the detected start to
+  ``t1`` (or to a detected end). ``t1`` is the end of the hold.
+* **Teleop** runs (``configuration.mode == "teleop"``) keep one detector over the whole stream, so
+  replay runs one detector from the first reading to the last and, for each touch, takes the
+  contact in progress at ``t1``: its readings after ``t0`` (when the pad came to rest) up to
+  ``t1`` (when the contact was recorded). A contact the new thresholds do not see is a ``miss``
+  but adds no free space (the operator's path is not a planned line); two touches that fall in one
+  detected contact (the pad never came off at the new end threshold) keep the first
+  (``same_press``), as teleop records a contact once per press. Teleop has no realign rule.
+
+Sessions written before ``press_t_s`` existed (autonomous only) fall back to the joint-state
+stream: the loop logs one joint state per poll of the sensor, and it polls every control tick only
 during a guarded approach, the press and the hold, so each press is a *dense run* of joint-state
-rows between free moves (retract, stand turn, transfer), which leave gaps. The detector is reset at
-the first row of a run (as the loop resets it after arriving at the standoff) and sees the readings
-up to the run's last row (the end of the hold, whose encoder reading the loop's forward kinematics
-used).
+rows between free moves (retract, stand turn, transfer), which leave gaps (:func:`press_spans`).
 """
 from __future__ import annotations
 
@@ -36,7 +51,7 @@ from sensor.contact_detection import PressureContactDetector, PressureDetectorCo
 from sensor.normal_estimation import OrientationNotSettledError, SettlingConfig, oriented_contact
 from sensor.oriented_contact import OrientedContact
 
-#: The settling criterion the exploration loop uses (``ExplorationLoop`` default; not recorded).
+#: The settling criterion the exploration loop uses (for sessions that do not record theirs).
 LOOP_SETTLING = SettlingConfig(**loop.LOOP_SETTLING)
 #: Touch results whose press is in the recorded streams (the others never reached the standoff).
 PRESSED_RESULTS = ("contact", "realign", "miss", "no_normal")
@@ -61,8 +76,8 @@ class ReplaySettings:
     mesh_resolution : int or None
         Grid samples of the output mesh along the longest side; None: as recorded.
     segment_gap_s : float or None
-        Joint-state gap that separates two presses, seconds; None: ``GAP_IN_SPACINGS`` x the
-        median spacing of the joint states.
+        Joint-state gap that separates two presses, seconds, for sessions without ``press_t_s``;
+        None: ``GAP_IN_SPACINGS`` x the median spacing of the joint states.
     figures : bool
         Write the PNG figures.
     """
@@ -96,7 +111,9 @@ class ReplayedTouch:
         Touch index in the session.
     kind : str
         Replay outcome: ``contact`` (used), ``set_aside`` (normal too far from the approach: the
-        loop's realign rule), ``no_normal`` (orientation never settled) or ``miss``.
+        loop's realign rule), ``no_normal`` (orientation never settled), ``miss``, or
+        ``same_press`` (teleop: in the same detected contact as an earlier touch), or
+        ``not_modelled`` (a contact outside the GPIS bounds).
     recorded_kind : str
         What the loop recorded for this touch.
     target_m, approach_dir : (3,) float
@@ -148,12 +165,28 @@ class ReplayResult:
 
 @dataclass(frozen=True)
 class PressSpan:
-    """Joint-state rows ``first..last`` (inclusive) of one press and their times, seconds."""
+    """Joint-state rows ``first..last`` (inclusive) of one press and their times, seconds.
+
+    The press's readings are those with ``t_start_s < t <= t_end_s``; ``last`` is the joint state
+    whose encoders give its pose.
+    """
 
     first: int
     last: int
     t_start_s: float
     t_end_s: float
+
+
+@dataclass(frozen=True)
+class DetectedPress:
+    """One contact the detector found in a whole stream: readings ``start`` up to ``end`` (excluded).
+
+    ``end`` is the reading that ended it, or the stream length when it never ended.
+    """
+
+    start: int
+    end: int
+    baseline_pa: float
 
 
 def press_spans(t_s: np.ndarray, gap_s: float | None = None) -> list[PressSpan]:
@@ -176,6 +209,39 @@ def press_spans(t_s: np.ndarray, gap_s: float | None = None) -> list[PressSpan]:
     firsts = np.r_[0, breaks + 1]
     lasts = np.r_[breaks, len(t_s) - 1]
     return [PressSpan(int(a), int(b), float(t_s[a]), float(t_s[b])) for a, b in zip(firsts, lasts) if b > a]
+
+
+def detect_presses(readings, config: PressureDetectorConfig) -> list[DetectedPress]:
+    """Every contact one detector finds over a whole stream, in order (as teleop runs it).
+
+    Parameters
+    ----------
+    readings : explorer.session.Readings
+        The session's raw stream.
+    """
+    detector = PressureContactDetector(config)
+    presses: list[DetectedPress] = []
+    start = baseline = None
+    for i in range(len(readings)):
+        event = detector.update(readings[i])
+        if event is None:
+            continue
+        if event.kind == "start":
+            start, baseline = i, event.baseline_pa
+        elif event.kind == "end" and start is not None:
+            presses.append(DetectedPress(start, i, baseline))
+            start = None
+    if start is not None:
+        presses.append(DetectedPress(start, len(readings), baseline))
+    return presses
+
+
+def _touch_from_event(event) -> ReplayedTouch:
+    """A touch event as a not-yet-detected ReplayedTouch (kind ``miss`` until a contact is found)."""
+    f = event.fields
+    return ReplayedTouch(int(f.get("index", -1)), "miss", f["result"], np.asarray(f["target_m"], float),
+                         np.asarray(f["approach_dir"], float), float(f.get("stand_yaw_rad", 0.0)),
+                         float(f.get("stand_tilt_rad", 0.0)))
 
 
 def _config(cls, recorded: dict | None):
@@ -212,8 +278,14 @@ class SessionReplay:
         self.events = reader.events()
         configuration = self.metadata.get("configuration") or {}
         self.configuration = configuration
+        self.teleop = configuration.get("mode") == "teleop"
         self.loop_config = _config(LoopConfig, configuration.get("loop"))
         self.planner_config = _config(PlannerConfig, configuration.get("planner"))
+        self.settling = (_config(SettlingConfig, configuration["settling"]) if "settling" in configuration
+                         else LOOP_SETTLING)
+        compliance_from = configuration.get("teleop") if self.teleop else configuration.get("loop")
+        self.pad_compliance_m_per_n = float((compliance_from or {}).get(
+            "pad_compliance_m_per_n", LoopConfig.pad_compliance_m_per_n))
         robot = self.metadata["robot"]
         robot_name = robot if isinstance(robot, str) else robot.get("name")
         spec = robots.load(robot_name)
@@ -222,7 +294,7 @@ class SessionReplay:
             raise ValueError(f"{session_dir}: joint_states.csv has {self.joint_states.dof} joints but "
                              f"robot {robot_name!r} has {spec.dof}")
         # The simulated stand sits at the robot's workspace centre (explorer.simulation.build_scene).
-        self.stand_centre_m = np.asarray(spec.workspace_center_m, float)
+        self.stand_centre_m = np.asarray(configuration.get("stand_centre_m", spec.workspace_center_m), float)
         self.truth = None
         self.prior = None
         object_name = self.metadata.get("object")
@@ -244,11 +316,17 @@ class SessionReplay:
             notes.append("cut off mid-record (last incomplete line ignored): " + ", ".join(self.truncated_files))
         detector_config = self._detector_config(settings)
         touches = []
-        for event, span in self._pressed_touches(settings, notes):
-            touches.append(self._replay_touch(event, span, detector_config))
+        if self.teleop:
+            detected = detect_presses(self.readings, detector_config)
+            used: dict[int, int] = {}  # detected press -> the touch that took it
+            for event, span in self._pressed_touches(settings, notes):
+                touches.append(self._replay_teleop_touch(event, span, detected, used, notes))
+        else:
+            for event, span in self._pressed_touches(settings, notes):
+                touches.append(self._replay_touch(event, span, detector_config))
         use_normals = (self.configuration.get("use_normals", True) if settings.use_normals is None
                        else settings.use_normals)
-        gpis = self._fit(touches, settings, use_normals)
+        gpis = self._fit(touches, settings, use_normals, notes)
         metrics = self._metrics(touches, gpis, settings, detector_config, use_normals, notes)
         result = ReplayResult(touches, gpis, metrics, None if out_dir is None else Path(out_dir), notes)
         if out_dir is not None:
@@ -265,13 +343,37 @@ class SessionReplay:
 
     def _pressed_touches(self, settings: ReplaySettings, notes: list[str]):
         """(touch event, press span) pairs, in order, for every touch that pressed."""
+        events = [e for e in self.events
+                  if e.fields.get("result") in PRESSED_RESULTS and "target_m" in e.fields]
+        if all("press_t_s" in e.fields for e in events):
+            yield from self._recorded_spans(events, notes)
+        elif self.teleop:
+            raise ValueError(f"{self.directory}: a teleop touch event has no press_t_s (sessions "
+                             "recorded before it existed cannot be replayed)")
+        else:
+            yield from self._spans_from_gaps(events, settings, notes)
+
+    def _recorded_spans(self, events, notes: list[str]):
+        t_joints = self.joint_states.t_s
+        last_reading_s = self.readings.t_s[-1] if len(self.readings) else -np.inf
+        for event in events:
+            t0, t1 = (float(v) for v in event.fields["press_t_s"])
+            last = int(np.searchsorted(t_joints, t1, side="right")) - 1
+            if t1 > last_reading_s:
+                notes.append(f"touch {event.fields.get('index')}: readings.csv ends before its press does; skipped")
+                continue
+            if last < 0 or t_joints[last] < t0:
+                notes.append(f"touch {event.fields.get('index')}: no joint state during its press; skipped")
+                continue
+            first = int(np.searchsorted(t_joints, t0, side="left"))
+            yield event, PressSpan(first, last, t0, t1)
+
+    def _spans_from_gaps(self, events, settings: ReplaySettings, notes: list[str]):
         spans = press_spans(self.joint_states.t_s, settings.segment_gap_s)
         starts = np.array([s.t_start_s for s in spans])
         last_reading_s = self.readings.t_s[-1] if len(self.readings) else -np.inf
         used = set()
-        for event in self.events:
-            if event.fields.get("result") not in PRESSED_RESULTS or "target_m" not in event.fields:
-                continue
+        for event in events:
             i = int(np.searchsorted(starts, event.t_s, side="right")) - 1
             tolerance = 0.5 * (spans[i].t_end_s - spans[i].t_start_s) if i >= 0 else 0.0
             if i < 0 or event.t_s > spans[i].t_end_s + tolerance or i in used:
@@ -286,10 +388,8 @@ class SessionReplay:
             notes.append(f"press at t = {spans[i].t_start_s:.3f} s has no touch event (cut off?); skipped")
 
     def _replay_touch(self, event, span: PressSpan, detector_config) -> ReplayedTouch:
-        f = event.fields
-        touch = ReplayedTouch(int(f.get("index", -1)), "miss", f["result"], np.asarray(f["target_m"], float),
-                              np.asarray(f["approach_dir"], float), float(f.get("stand_yaw_rad", 0.0)),
-                              float(f.get("stand_tilt_rad", 0.0)))
+        """An autonomous touch: the detector reset at the span's start sees its readings."""
+        touch = _touch_from_event(event)
         t = self.readings.t_s
         first = int(np.searchsorted(t, span.t_start_s, side="right"))
         stop = int(np.searchsorted(t, span.t_end_s, side="right"))
@@ -306,27 +406,55 @@ class SessionReplay:
                 break
         if start is None:
             return touch
-        readings = [self.readings[i] for i in range(start, stop if end is None else end)]
+        self._measure(touch, range(start, stop if end is None else end), span)
+        if touch.kind == "contact":
+            aligned = float(np.dot(touch.normal, -touch.approach_dir)) >= np.cos(self.loop_config.realign_angle_rad)
+            touch.kind = "contact" if aligned else "set_aside"
+        return touch
+
+    def _replay_teleop_touch(self, event, span: PressSpan, detected: list[DetectedPress],
+                             used: dict[int, int], notes: list[str]) -> ReplayedTouch:
+        """A teleop touch: the contact in progress at the span's end, from its readings after the start."""
+        touch = _touch_from_event(event)
+        t = self.readings.t_s
+        first = int(np.searchsorted(t, span.t_start_s, side="right"))
+        stop = int(np.searchsorted(t, span.t_end_s, side="right"))
+        starts = np.array([d.start for d in detected], int)
+        k = int(np.searchsorted(starts, stop, side="left")) - 1  # the last contact started before stop
+        if k < 0 or detected[k].end < stop:
+            return touch
+        if k in used:
+            touch.kind = "same_press"
+            notes.append(f"touch {touch.index}: in the same detected contact as touch {used[k]} "
+                         "(the pad never came off at these thresholds); recorded once")
+            return touch
+        used[k] = touch.index
+        touch.baseline_pa = detected[k].baseline_pa
+        self._measure(touch, range(max(first, detected[k].start), stop), span)
+        return touch
+
+    def _measure(self, touch: ReplayedTouch, rows: range, span: PressSpan) -> None:
+        """Contact from readings ``rows`` and the encoders at ``span.last``; kind ``contact`` or ``no_normal``."""
+        readings = [self.readings[i] for i in rows]
         pivot = self.kinematics.forward_kinematics(self.joint_states.q[span.last].copy(),
                                                    link=self.kinematics.spec.pivot_link).position_m
         try:
             contact = oriented_contact(readings, pivot, self.kinematics.pivot_to_pad_in_body,
-                                       touch.baseline_pa, settling=LOOP_SETTLING)
-        except (OrientationNotSettledError, ValueError):  # ValueError: pressure saturated
+                                       touch.baseline_pa, settling=self.settling)
+        except (OrientationNotSettledError, ValueError):  # ValueError: pressure saturated, too few readings
             touch.kind = "no_normal"
-            return touch
-        surface = contact.position_m + contact.normal * contact.force_n * self.loop_config.pad_compliance_m_per_n
+            return
+        surface = contact.position_m + contact.normal * contact.force_n * self.pad_compliance_m_per_n
         rotation = stand_rotation(StandPose(touch.stand_yaw_rad, touch.stand_tilt_rad))
         touch.contact = contact
         touch.position_m = (surface - self.stand_centre_m) @ rotation
         normal = contact.normal @ rotation
         touch.normal = normal / np.linalg.norm(normal)
-        aligned = float(np.dot(touch.normal, -touch.approach_dir)) >= np.cos(self.loop_config.realign_angle_rad)
-        touch.kind = "contact" if aligned else "set_aside"
-        return touch
+        touch.kind = "contact"
 
     # ------------------------------------------------------------------ reconstruction
-    def _fit(self, touches: list[ReplayedTouch], settings: ReplaySettings, use_normals: bool) -> GPIS:
+    def _fit(self, touches: list[ReplayedTouch], settings: ReplaySettings, use_normals: bool,
+             notes: list[str]) -> GPIS:
         """The GPIS, updated in the loop's order: contacts one by one, misses as free space."""
         options = {k: v for k, v in (("noise", settings.noise), ("normal_noise", settings.normal_noise))
                    if v is not None}
@@ -335,11 +463,16 @@ class SessionReplay:
         pending: list[np.ndarray] = []
         for touch in touches:
             if touch.kind == "contact":
-                gpis.add(touch.position_m, touch.normal)
+                try:
+                    gpis.add(touch.position_m, touch.normal)
+                except ValueError as err:  # outside the prior box (teleop keeps such contacts unmodelled)
+                    touch.kind = "not_modelled"
+                    notes.append(f"touch {touch.index}: not modelled: {err}")
+                    continue
                 if pending:
                     self._add_free_space(gpis, np.vstack(pending))
                     pending = []
-            elif touch.kind == "miss":
+            elif touch.kind == "miss" and not self.teleop:  # a teleop path is not a planned line
                 swept = self._swept_line(touch, gpis)
                 if len(swept) and gpis.n_contacts:
                     self._add_free_space(gpis, swept)
@@ -372,6 +505,7 @@ class SessionReplay:
                 end_threshold_pa=detector_config.end_threshold_pa, use_normals=use_normals),
             touches=len(touches), contacts=kinds.count("contact"), misses=kinds.count("miss"),
             set_aside=kinds.count("set_aside"), no_normal=kinds.count("no_normal"),
+            same_press=kinds.count("same_press"), not_modelled=kinds.count("not_modelled"),
             recorded_contacts=recorded.count("contact"), n_contacts_fitted=gpis.n_contacts,
             notes=list(notes),
         )

@@ -19,6 +19,7 @@ from explorer.run import object_prior
 from explorer.simulation import build_scene
 from explorer.teleop.devices import InputDevice
 from explorer.teleop.session import TeleopConfig, TeleopContact, TeleopSession
+from reconstruction.gpis import GPIS
 from sensor.contact_detection import PressureContactDetector, PressureDetectorConfig
 from sensor.normal_estimation import SettlingConfig
 
@@ -56,10 +57,13 @@ class DeviceContext:
 
 @dataclass
 class TeleopResult:
+    """The recorded contacts (object frame), the suggested next touch, the final mesh and GPIS."""
+
     contacts: list[TeleopContact]
     suggestion_m: np.ndarray | None
     mesh: object
     out_dir: Path
+    gpis: GPIS | None = None
 
 
 def run_simulated_teleop(object_name: str, device_factory: Callable[[DeviceContext], InputDevice],
@@ -110,7 +114,7 @@ def run_simulated_teleop(object_name: str, device_factory: Callable[[DeviceConte
             raise
         finally:
             mesh = _finish(session, recorder, out_dir, error)
-    return TeleopResult(session.contacts, session.suggestion_m, mesh, out_dir)
+    return TeleopResult(session.contacts, session.suggestion_m, mesh, out_dir, session.gpis)
 
 
 def _finish(session: TeleopSession, recorder: RunRecorder, out_dir: Path, error) -> object:
