@@ -76,5 +76,6 @@ def test_spacemouse_without_its_package_says_what_to_install(monkeypatch):
         return real_import(name, *args, **kwargs)
 
     monkeypatch.setattr(builtins, "__import__", no_pyspacemouse)
-    with pytest.raises(ImportError, match="pip install pyspacemouse"):
+    with pytest.raises(ImportError, match="pip install pyspacemouse") as error:
         SpaceMouseDevice().open()
+    assert "pip install -e .[teleop]" in str(error.value)  # the extra in setup.cfg

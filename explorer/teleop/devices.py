@@ -154,7 +154,7 @@ class SpaceMouseDevice(InputDevice):
             import pyspacemouse
         except ImportError as err:
             raise ImportError("SpaceMouseDevice needs the optional package pyspacemouse: "
-                              "pip install pyspacemouse") from err
+                              "pip install -e .[teleop] (or pip install pyspacemouse)") from err
         if not pyspacemouse.open():
             raise RuntimeError("no SpaceMouse found (is it plugged in, and readable by this user?)")
         self._driver = pyspacemouse
