@@ -1,6 +1,9 @@
 """``tactile-reconstruct``: replay a recorded session with new detector thresholds and GPIS settings.
 
     tactile-reconstruct results/explore/session --out results/replay --start-threshold-pa 150
+    tactile-reconstruct results/teleop --out results/teleop-replay --no-normals
+
+Autonomous and teleop sessions alike (explorer/replay.py says how each is detected again).
 """
 from __future__ import annotations
 
@@ -39,7 +42,7 @@ def main(argv: list[str] | None = None) -> None:
         result = replay(args.session, settings, args.out)
     except ValueError as err:
         parser.error(str(err))
-    keys = ("touches", "contacts", "misses", "set_aside", "no_normal", "recorded_contacts",
+    keys = ("touches", "contacts", "misses", "set_aside", "no_normal", "same_press", "recorded_contacts",
             "position_rmse_mm", "normal_rmse_deg", "notes")
     print(json.dumps({k: result.metrics.get(k) for k in keys}, indent=2))
     print(f"outputs in {args.out}")
