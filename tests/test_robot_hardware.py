@@ -383,3 +383,27 @@ def test_the_adapter_skeleton_in_the_docs_is_a_complete_joint_interface(spec):
     assert issubclass(adapter_class, JointInterface) and not adapter_class.__abstractmethods__
     arm = HardwareArm(adapter_class(dof=spec.dof), spec)  # constructing does no I/O
     assert arm.device.startswith("arm")
+
+
+def test_an_encoder_reading_past_a_limit_is_not_commanded_back_to_the_controller(spec):
+    """Found by the emulated dry run: at a limit the quantised encoder reads up to a step past it,
+    and targets interpolated from there were refused (OUT_OF_LIMITS) mid guarded move."""
+    clock = FakeClock()
+    upper = EmulatedArmController.for_spec(spec).upper_rad
+    past = np.round(upper / RESOLUTION) * RESOLUTION - upper
+    joint = int(np.argmax(past))
+    assert past[joint] > 1e-6, "no joint limit rounds past itself at this encoder resolution"
+    at_limit = spec.home_q.copy()
+    at_limit[joint] = upper[joint]
+    controller = EmulatedArmController.for_spec(spec, clock=clock.monotonic, encoder_resolution_rad=RESOLUTION,
+                                                q_init_rad=at_limit)
+    arm = SerialArm(FakeArmSerial(controller, clock=clock, port="/dev/ttyTEST"), spec, clock=clock.monotonic,
+                    sleep=clock.sleep)
+    back = at_limit.copy()
+    back[joint] -= 0.05
+    with arm:
+        assert arm.joint_positions()[joint] > upper[joint] + 1e-6  # the encoder reads past the limit
+        arm.hold(0.05)
+        result = arm.guarded_move(np.array([at_limit, back]), stop=lambda: False, speed_rad_s=0.5)
+    assert not result.stopped
+    assert abs(result.q[joint] - back[joint]) < 3e-3

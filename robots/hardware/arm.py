@@ -165,7 +165,7 @@ class HardwareArm(Robot):
         if not duration_s >= 0.0:
             raise ValueError(f"duration_s must be >= 0, got {duration_s}")
         try:
-            q = self._encoders()
+            q = self._within_limits(self._encoders())
             t0 = self.clock()
             while self.clock() - t0 < duration_s:
                 if stop is not None and stop():
@@ -222,7 +222,7 @@ class HardwareArm(Robot):
                 seg_start = ends[segment] - durations[segment]
                 fraction = (t - seg_start) / durations[segment] if durations[segment] > 0 else 1.0
                 target = points[segment] + fraction * (points[segment + 1] - points[segment])
-            self.joints.command(target)
+            self.joints.command(self._within_limits(target))
             next_tick += self.control_period_s
             delay = next_tick - self.clock()
             if delay < 0.0:
@@ -230,6 +230,11 @@ class HardwareArm(Robot):
                 next_tick = self.clock()
             else:
                 self.sleep(delay)
+
+    def _within_limits(self, q: np.ndarray) -> np.ndarray:
+        """``q`` clipped to the joint limits: an encoder reads up to a step past a limit, and a
+        target interpolated from there would be refused by the controller."""
+        return np.clip(q, self.lower_rad, self.upper_rad)
 
     def _encoders(self) -> np.ndarray:
         _, q = self.joints.read_encoders()  # adapters may return a plain (t_s, q) tuple
