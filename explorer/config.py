@@ -1,9 +1,10 @@
-"""Backend configuration: which robot and sensor to use and how to reach them, from a TOML or JSON file.
+"""Rig configuration: which robot and sensor to use and how to reach them, what object is explored
+and roughly where, and the exploration settings, from a TOML or JSON file.
 
 ::
 
     [robot]
-    backend = "serial"          # "sim" | "serial"
+    backend = "serial"          # "sim" | "serial" | "emulated"
     spec = "armar3"             # registered robot name or robot spec .json path
     port = "/dev/ttyUSB0"       # or "armemu://armar3" (emulated controller)
 
@@ -14,10 +15,22 @@
     bno055_address = 0x28
     calibration = "calibration.json"   # relative to this file
 
+    [object]
+    name = "mug"                        # a label on hardware; a registry name or mesh in simulation
+    centre_m = [0.0, 0.55, 1.0]         # rough centre, robot base frame (the object frame's origin)
+    half_extent_m = [0.06, 0.06, 0.08]  # rough half size along the base axes (over-estimate)
+    reference_mesh = "mug.stl"          # optional true surface, object frame, for error metrics
+
+    [exploration]
+    touches = 50
+    strategy = "variance"
+
 :func:`load_config` reads and checks a file (every error names the key), :func:`open_backends`
 opens both devices as a context manager. The simulated backends (``backend = "sim"``) are built
 by a callable the explorer passes in (:func:`open_sim_backends`), so this module needs neither
-PyBullet nor the hardware packages until a device is opened.
+PyBullet nor the hardware packages until a device is opened. ``robot.backend = "emulated"`` with
+``sensor.backend = "emulated"`` is a dry run without hardware: the serial arm protocol and the
+chip drivers on emulators, pressed against a virtual sphere (``[emulation]``).
 """
 from __future__ import annotations
 
@@ -31,7 +44,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any, Callable, ContextManager, Iterator
 
-ROBOT_BACKENDS = ("sim", "serial")
+ROBOT_BACKENDS = ("sim", "serial", "emulated")
 SENSOR_BACKENDS = ("sim", "i2c", "uart", "mcu", "emulated")
 BMP280_ADDRESSES = (0x76, 0x77)
 BNO055_ADDRESSES = (0x28, 0x29)
@@ -79,6 +92,20 @@ def _port(key: str, value: Any) -> str | None:
     if not isinstance(value, str) or not value.strip():
         raise _fail(key, f"expected a device path or URL such as '/dev/ttyUSB0', got {value!r}")
     return value
+
+
+def _vector3(key: str, value: Any, positive: bool = False) -> tuple[float, float, float] | None:
+    """Three finite numbers (a single number means the same on each axis when ``positive``)."""
+    if value is None:
+        return None
+    if positive and isinstance(value, (int, float)) and not isinstance(value, bool):
+        value = [value] * 3
+    if (not isinstance(value, (list, tuple)) or len(value) != 3
+            or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) for v in value)):
+        raise _fail(key, f"expected three numbers [x, y, z] in metres, got {value!r}")
+    if positive and min(value) <= 0:
+        raise _fail(key, f"every component must be positive, got {list(value)}")
+    return tuple(float(v) for v in value)
 
 
 def _address(key: str, value: Any, allowed: tuple[int, ...], wiring: str) -> int:
@@ -190,6 +217,105 @@ class SensorConfig:
 
 
 @dataclass(frozen=True)
+class ObjectConfig:
+    """``[object]``: what is explored and roughly where.
+
+    Attributes
+    ----------
+    name : str
+        A label on hardware; in simulation the registry name or mesh file that is loaded.
+    centre_m : (3,) float or None
+        Rough centre, robot base frame, metres: the object frame's origin (its axes are the
+        base axes). Default: the robot's workspace centre.
+    half_extent_m : (3,) float or None
+        Rough half size along each axis, metres (over-estimate; a number means all three).
+        Required on hardware; in simulation it comes from the object's mesh, in emulation from
+        the sphere.
+    reference_mesh : Path or None
+        The true surface, object frame, metres (any format trimesh reads), for error metrics.
+    """
+
+    name: str = "banana"
+    centre_m: tuple[float, float, float] | None = None
+    half_extent_m: tuple[float, float, float] | None = None
+    reference_mesh: Path | None = None
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise _fail("object.name", f"expected a non-empty name, got {self.name!r}")
+        set_(self, "centre_m", _vector3("object.centre_m", self.centre_m))
+        set_(self, "half_extent_m", _vector3("object.half_extent_m", self.half_extent_m, positive=True))
+        if self.reference_mesh is not None:
+            if not isinstance(self.reference_mesh, (str, Path)) or not str(self.reference_mesh):
+                raise _fail("object.reference_mesh", f"expected a mesh file path, got {self.reference_mesh!r}")
+            set_(self, "reference_mesh", Path(self.reference_mesh))
+
+
+@dataclass(frozen=True)
+class ExplorationConfig:
+    """``[exploration]``: the run's settings (see :class:`explorer.run.RunSettings`).
+
+    Attributes
+    ----------
+    touches : int
+    strategy : str
+        ``variance``, ``random`` or ``uniform``.
+    seed : int
+    use_normals : bool
+    eval_every : int
+        Evaluate against the reference every this many touches (0: never).
+    mesh_resolution : int
+        Marching-cubes grid of the final mesh.
+    """
+
+    touches: int = 50
+    strategy: str = "variance"
+    seed: int = 0
+    use_normals: bool = True
+    eval_every: int = 5
+    mesh_resolution: int = 96
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "touches", _integer("exploration.touches", self.touches, 1))
+        _choice("exploration.strategy", self.strategy, ("variance", "random", "uniform"))
+        set_(self, "seed", _integer("exploration.seed", self.seed, 0))
+        if not isinstance(self.use_normals, bool):
+            raise _fail("exploration.use_normals", f"expected true or false, got {self.use_normals!r}")
+        set_(self, "eval_every", _integer("exploration.eval_every", self.eval_every, 0))
+        set_(self, "mesh_resolution", _integer("exploration.mesh_resolution", self.mesh_resolution, 8, 512))
+
+
+@dataclass(frozen=True)
+class EmulationConfig:
+    """``[emulation]``: the virtual object of an emulated rig (``robot.backend = "emulated"``).
+
+    Attributes
+    ----------
+    sphere_radius_m : float
+    sphere_offset_m : (3,) float
+        The sphere's true centre relative to ``object.centre_m`` (a rough location is rough).
+    noise_pa : float
+        Barometer noise, pascals (standard deviation).
+    seed : int
+    """
+
+    sphere_radius_m: float = 0.05
+    sphere_offset_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    noise_pa: float = 2.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "sphere_radius_m", _positive("emulation.sphere_radius_m", self.sphere_radius_m))
+        set_(self, "sphere_offset_m", _vector3("emulation.sphere_offset_m", self.sphere_offset_m))
+        if isinstance(self.noise_pa, bool) or not isinstance(self.noise_pa, (int, float)) or not self.noise_pa >= 0:
+            raise _fail("emulation.noise_pa", f"expected a number >= 0, got {self.noise_pa!r}")
+        set_(self, "seed", _integer("emulation.seed", self.seed, 0))
+
+
+@dataclass(frozen=True)
 class BackendConfig:
     """The whole configuration.
 
@@ -197,16 +323,28 @@ class BackendConfig:
     ----------
     robot : RobotConfig
     sensor : SensorConfig
+    object : ObjectConfig
+    exploration : ExplorationConfig
+    emulation : EmulationConfig
     source : Path or None
         The file it was read from.
     """
 
     robot: RobotConfig = field(default_factory=RobotConfig)
     sensor: SensorConfig = field(default_factory=SensorConfig)
+    object: ObjectConfig = field(default_factory=ObjectConfig)
+    exploration: ExplorationConfig = field(default_factory=ExplorationConfig)
+    emulation: EmulationConfig = field(default_factory=EmulationConfig)
     source: Path | None = None
 
+    def __post_init__(self) -> None:
+        if self.robot.backend == "emulated" and self.sensor.backend != "emulated":
+            raise _fail("sensor.backend", f"robot.backend = 'emulated' needs sensor.backend = 'emulated' (the "
+                                          f"emulated arm presses the emulated chips), got {self.sensor.backend!r}")
 
-_SECTIONS = {"robot": RobotConfig, "sensor": SensorConfig}
+
+_SECTIONS = {"robot": RobotConfig, "sensor": SensorConfig, "object": ObjectConfig,
+             "exploration": ExplorationConfig, "emulation": EmulationConfig}
 
 
 def config_from_dict(data: Any, base_dir: str | Path | None = None, source: Path | None = None) -> BackendConfig:
@@ -225,16 +363,20 @@ def config_from_dict(data: Any, base_dir: str | Path | None = None, source: Path
             raise _fail(name, f"must be a table of keys, got {section!r}")
         _reject_unknown(f"{name}.", section, {f.name for f in fields(cls)})
         sections[name] = cls(**section)
-    sensor = sections["sensor"]
-    if sensor.calibration is not None and not sensor.calibration.is_absolute() and base_dir is not None:
-        sensor = _replace(sensor, calibration=Path(base_dir) / sensor.calibration)
-    return BackendConfig(robot=sections["robot"], sensor=sensor, source=source)
+    sensor, target = sections["sensor"], sections["object"]
+    if base_dir is not None:
+        if sensor.calibration is not None and not sensor.calibration.is_absolute():
+            sensor = _replace(sensor, calibration=Path(base_dir) / sensor.calibration)
+        if target.reference_mesh is not None and not target.reference_mesh.is_absolute():
+            target = _replace(target, reference_mesh=Path(base_dir) / target.reference_mesh)
+    return BackendConfig(robot=sections["robot"], sensor=sensor, object=target,
+                         exploration=sections["exploration"], emulation=sections["emulation"], source=source)
 
 
-def _replace(config: SensorConfig, **changes) -> SensorConfig:
+def _replace(config, **changes):
     values = {f.name: getattr(config, f.name) for f in fields(config)}
     values.update(changes)
-    return SensorConfig(**values)
+    return type(config)(**values)
 
 
 def _reject_unknown(prefix: str, data: dict, known) -> None:
@@ -399,8 +541,13 @@ def open_backends(config: BackendConfig, *, sim_builder: SimBuilder | None = Non
     """Open the robot and the sensor of ``config``; yields ``(robot, sensor)`` and closes both on exit.
 
     The robot is opened first and closed last. Simulation and hardware do not mix: ``"sim"`` must
-    be chosen for both or neither.
+    be chosen for both or neither. ``robot.backend = "emulated"`` runs on emulators in virtual
+    time (``clock``, ``sleep`` and ``open_i2c_bus`` are not used).
     """
+    if config.robot.backend == "emulated":
+        with open_emulated_backends(config) as pair:
+            yield pair
+        return
     sim = (config.robot.backend == "sim", config.sensor.backend == "sim")
     if any(sim):
         if not all(sim):
@@ -415,3 +562,21 @@ def open_backends(config: BackendConfig, *, sim_builder: SimBuilder | None = Non
         sensor = stack.enter_context(open_sensor(config.sensor, clock=clock, sleep=sleep,
                                                  open_i2c_bus=open_i2c_bus))
         yield robot, sensor
+
+
+@contextlib.contextmanager
+def open_emulated_backends(config: BackendConfig) -> Iterator[tuple[Any, Any]]:
+    """A :class:`robots.hardware.SerialArm` and a :class:`sensor.drivers.HardwareTactileSensor` on
+    emulators, coupled through a virtual sphere (``[emulation]``) at ``object.centre_m`` plus
+    ``emulation.sphere_offset_m``; both run on one virtual clock. Yields ``(robot, sensor)``."""
+    import numpy as np
+
+    import robots
+    from robots.emulators.contact_world import VirtualSphere, emulated_rig
+
+    spec = robots.load(config.robot.spec)
+    centre = np.asarray(config.object.centre_m or spec.workspace_center_m, float)
+    sphere = VirtualSphere(centre + np.asarray(config.emulation.sphere_offset_m), config.emulation.sphere_radius_m)
+    rig = emulated_rig(spec, sphere, noise_pa=config.emulation.noise_pa, seed=config.emulation.seed)
+    with rig.arm, rig.sensor:
+        yield rig.arm, rig.sensor

@@ -71,7 +71,11 @@ class LoopConfig:
         After the press the arm holds until the IMU orientation has settled (the spring has
         aligned the pad), at most this long.
     candidates : int
-        Touches requested from the strategy per step (tried in order until one is reachable).
+        Touches requested from the strategy per round (tried in order until one is reachable).
+    proposal_rounds : int
+        Rounds of ``candidates`` proposals per step before the step counts as unreachable; each
+        round's unreachable targets are avoided by the next (an object that cannot be turned has
+        a whole side out of reach, and the most uncertain places are all there).
     free_space_value : float
         Implicit-function value given to points swept by a missed approach (about minus half the
         pad width: the pad passed there, so the surface is at least that far).
@@ -100,6 +104,7 @@ class LoopConfig:
     press_force_n: float = 1.5
     settle_timeout_s: float = 1.0
     candidates: int = 6
+    proposal_rounds: int = 3
     free_space_value: float = -0.009
     free_space_noise: float = 0.005
     max_unreachable_in_a_row: int = 5
@@ -216,21 +221,26 @@ class ExplorationLoop:
 
     def step(self) -> TouchRecord:
         """One touch: plan, move, press, record, update."""
-        t0 = time.perf_counter()
         self.state.gpis = self.gpis if self.gpis.n_contacts else None
-        proposals = self.strategy.propose(self.state, self.config.candidates)
-        if self._follow_up is not None:
-            proposals = [self._follow_up] + proposals
-            self._follow_up = None
-        t1 = time.perf_counter()
-        self.times.selection_s += t1 - t0
-        plan = None
-        for touch in proposals:
-            plan = self.planner.plan(touch, seed_q=self.robot.joint_positions())
-            if plan is not None:
+        plan, first_proposals = None, None
+        for _ in range(max(self.config.proposal_rounds, 1)):
+            t0 = time.perf_counter()
+            proposals = self.strategy.propose(self.state, self.config.candidates)
+            if self._follow_up is not None:
+                proposals = [self._follow_up] + proposals
+                self._follow_up = None
+            first_proposals = proposals if first_proposals is None else first_proposals
+            t1 = time.perf_counter()
+            self.times.selection_s += t1 - t0
+            for touch in proposals:
+                plan = self.planner.plan(touch, seed_q=self.robot.joint_positions())
+                if plan is not None:
+                    break
+                self.state.unreachable_m.append(touch.target_m)
+            self.times.planning_s += time.perf_counter() - t1
+            if plan is not None or not proposals:
                 break
-            self.state.unreachable_m.append(touch.target_m)
-        self.times.planning_s += time.perf_counter() - t1
+        proposals = first_proposals
         index = len(self.records)
         self.state.touches += 1
         if plan is None:

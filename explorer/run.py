@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import platform
 import time
+import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -186,8 +187,16 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
         _record_error(recorder, rig, exc)
         raise
     finally:
-        metrics = _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve,
-                          _safe_time(rig.robot), time.perf_counter() - wall0, eval_s[0], error)
+        try:
+            metrics = _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve,
+                              _safe_time(rig.robot), time.perf_counter() - wall0, eval_s[0], error)
+        except Exception as finish_error:
+            if error is None:
+                raise
+            # Raising here would replace the error that stopped the run; the records are on disk.
+            recorder.close(error)
+            warnings.warn(f"the run stopped ({type(error).__name__}) and its outputs could not all be "
+                          f"written: {type(finish_error).__name__}: {finish_error}", RuntimeWarning)
     return RunResult(loop.records, gpis, metrics, out_dir)
 
 
@@ -250,7 +259,11 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
     metrics["error_curve"] = [dict(touches=n, position_rmse_mm=p, normal_rmse_deg=a) for n, p, a in curve]
     (out_dir / "metrics.json").write_text(json.dumps(jsonable(metrics), indent=2))
     if mesh is not None:
-        _plots(out_dir, gpis, mesh, truth, contacts, curve, settings)
+        try:
+            _plots(out_dir, gpis, mesh, truth, contacts, curve, settings)
+        except ValueError as exc:  # e.g. too few contacts to frame a figure: say so, keep the rest
+            metrics["figure_error"] = str(exc)
+            (out_dir / "metrics.json").write_text(json.dumps(jsonable(metrics), indent=2))
     recorder.close(error)
     return metrics
 
@@ -264,6 +277,8 @@ def _plots(out_dir, gpis, mesh, truth, contacts, curve, settings) -> None:
         errors = np.array([[p * 1e-3 for _, p, _ in curve]])
         figures.error_vs_touches({settings.strategy: errors}, out_dir / "error_vs_touches.png",
                                  touches=[n for n, _, _ in curve])
+    # Without the truth the slice goes through the contacts (a one-sided touch set may not reach z = 0).
+    offset_m = 0.0 if truth is not None or not len(contacts) else float(np.median(contacts[:, 2]))
     figures.potential_slice(gpis if settings.use_normals else None,
-                            None if settings.use_normals else gpis, truth,
+                            None if settings.use_normals else gpis, truth, offset_m=offset_m,
                             path=out_dir / "potential_slice.png")

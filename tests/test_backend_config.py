@@ -47,13 +47,24 @@ def test_baud_rate_defaults_depend_on_the_sensor_link():
 def test_every_example_config_loads(name):
     config = load_config(CONFIGS / name)
     assert isinstance(config, BackendConfig)
-    assert config.robot.backend in ("sim", "serial")
+    assert config.robot.backend in ("sim", "serial", "emulated")
+    assert config.exploration.touches >= 1 and config.object.name
 
 
 @pytest.mark.parametrize("data, message", [
     ({"robot": {"prot": "/dev/ttyUSB0"}}, r"robot\.prot: unknown key \(did you mean 'port'\?\)"),
     ({"robots": {}}, r"robots: unknown key \(did you mean 'robot'\?\)"),
-    ({"robot": {"backend": "ros"}}, r"robot\.backend: 'ros' is not one of 'sim', 'serial'"),
+    ({"robot": {"backend": "ros"}}, r"robot\.backend: 'ros' is not one of 'sim', 'serial', 'emulated'"),
+    ({"robot": {"backend": "emulated"}, "sensor": {"backend": "i2c"}},
+     r"sensor\.backend: robot\.backend = 'emulated' needs sensor\.backend = 'emulated'"),
+    ({"object": {"centre_m": [0.1, 0.2]}}, r"object\.centre_m: expected three numbers"),
+    ({"object": {"half_extent_m": [0.1, 0.0, 0.1]}}, r"object\.half_extent_m: every component must be positive"),
+    ({"object": {"name": ""}}, r"object\.name: expected a non-empty name"),
+    ({"exploration": {"touches": 0}}, r"exploration\.touches: 0 must be >= 1"),
+    ({"exploration": {"strategy": "greedy"}}, r"exploration\.strategy: 'greedy' is not one of"),
+    ({"exploration": {"use_normals": "yes"}}, r"exploration\.use_normals: expected true or false"),
+    ({"exploration": {"touchs": 5}}, r"exploration\.touchs: unknown key \(did you mean 'touches'\?\)"),
+    ({"emulation": {"sphere_radius_m": 0}}, r"emulation\.sphere_radius_m: expected a positive number"),
     ({"robot": {"backend": "serial"}}, r"robot\.port: required when robot\.backend = 'serial'"),
     ({"robot": {"attempts": 0}}, r"robot\.attempts: 0 must be in 1\.\.100"),
     ({"robot": {"attempts": True}}, r"robot\.attempts: expected an integer"),
@@ -187,3 +198,14 @@ def test_simulation_and_hardware_do_not_mix():
     with pytest.raises(ValueError, match=r"robot\.backend = 'sim' and sensor\.backend = 'emulated'"):
         with open_backends(config):
             pass
+
+
+def test_object_sections_resolve_paths_and_expand_a_single_size(tmp_path):
+    path = tmp_path / "rig.json"
+    path.write_text('{"object": {"name": "mug", "half_extent_m": 0.05, "reference_mesh": "mug.stl", '
+                    '"centre_m": [0.3, -0.3, 0.9]}, "exploration": {"touches": 7, "use_normals": false}}')
+    config = load_config(path)
+    assert config.object.half_extent_m == (0.05, 0.05, 0.05)
+    assert config.object.centre_m == (0.3, -0.3, 0.9)
+    assert config.object.reference_mesh == tmp_path / "mug.stl"
+    assert (config.exploration.touches, config.exploration.use_normals) == (7, False)

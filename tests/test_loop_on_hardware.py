@@ -153,3 +153,81 @@ def test_exploration_loop_on_the_hardware_backend_touches_the_virtual_sphere(spe
     np.testing.assert_array_equal(normals, np.array([r.normal for r in contacts]))
     assert (tmp_path / "session").is_dir()
 
+
+
+# ---- a device that fails mid-run, and the resumed run ------------------------------------------
+
+def _rig_for_run(spec, kinematics, sphere_centre):
+    from explorer.run import Rig
+
+    emulated = emulated_rig(spec, VirtualSphere(sphere_centre, RADIUS_M), kinematics=kinematics)
+    prior = ObjectPrior(np.zeros(3), np.full(3, 0.06))
+    rig = Rig(emulated.arm, emulated.sensor, kinematics, FixedStand(sphere_centre), prior, None,
+              dict(robot=spec.name, sensor="emulated BMP280 + BNO055", object="virtual sphere", backend="emulators"))
+    return emulated, rig
+
+
+def _inject_sensor_disconnect(emulated):
+    from sensor.emulators.faults import Fault
+    emulated.bus.faults.inject(Fault.DISCONNECT)
+
+
+def _inject_arm_link_silent(emulated):
+    from robots.emulators.arm_serial import ArmFault
+    emulated.port.faults.inject(ArmFault.SILENT, after=30)  # part-way through the next move
+
+
+@pytest.mark.parametrize("inject, device_words", [(_inject_sensor_disconnect, ("I2C", "0x")),
+                                                  (_inject_arm_link_silent, ("arm",))],
+                         ids=["sensor-bus-disconnect", "arm-link-silent"])
+def test_a_device_failing_mid_run_stops_the_arm_keeps_the_records_and_the_run_resumes(
+        spec, kinematics, tmp_path, one_torch_thread, inject, device_words):
+    import json
+
+    from explorer.run import RunSettings, run_on_rig
+    from explorer.session import read_session
+
+    centre = np.asarray(spec.workspace_center_m, dtype=float)
+    settings = RunSettings(object="virtual sphere", robot=spec.name, touches=6, eval_every=0, mesh_resolution=24)
+    emulated, rig = _rig_for_run(spec, kinematics, centre)
+    finished = []
+
+    def fail_after_three(record):
+        finished.append(record)
+        if record.index == 2:
+            inject(emulated)
+
+    with emulated.arm, emulated.sensor:
+        with pytest.raises(Exception) as failure:
+            run_on_rig(rig, settings, tmp_path, progress=fail_after_three)
+        moving_after_failure = emulated.controller.is_moving
+    error = failure.value
+    device = getattr(error, "device", "")
+    assert all(word in device for word in device_words), (type(error), str(error))
+    assert 3 <= len(finished) < 6
+    assert not moving_after_failure  # stopped, not left tracking a stale target
+    print(f"{type(error).__name__}: {error}")
+
+    recorded_contacts = [r for r in finished if r.kind == "contact"]
+    points, _ = read_contacts_csv(tmp_path / "contacts.csv")
+    assert len(points) == len(recorded_contacts) >= 2
+    np.testing.assert_array_equal(points, [r.position_m for r in recorded_contacts])
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    assert metrics["completed"] is False and metrics["error"]["device"] == device
+    session = read_session(tmp_path / "session")
+    assert session.metadata["end_status"] == "aborted" and device in session.metadata["end_error"]
+    assert [e.fields["source"] for e in session.events if e.kind == "error"] == [device]
+    assert len(session.contacts) == len(recorded_contacts)
+
+    # the device is back (a fresh emulator, its clock from zero again): the run goes on to its budget
+    emulated, rig = _rig_for_run(spec, kinematics, centre)
+    with emulated.arm, emulated.sensor:
+        result = run_on_rig(rig, settings, tmp_path, resume=True)
+    assert len(result.records) == 6 and result.metrics["completed"], [r.kind for r in result.records]
+    resumed_points, _ = read_contacts_csv(tmp_path / "contacts.csv")
+    np.testing.assert_array_equal(resumed_points[:len(points)], points)
+    assert len(resumed_points) == sum(r.kind == "contact" for r in result.records) > len(points), [r.kind for r in result.records]
+    for position in resumed_points:
+        assert abs(np.linalg.norm(position) - RADIUS_M) < 1.5e-3
+    session = read_session(tmp_path / "session")  # times checked non-decreasing by the reader
+    assert session.metadata["end_status"] == "closed"

@@ -229,6 +229,10 @@ class EmulatedRig:
     world : ContactWorld
     clock : FakeClock
     controller : EmulatedArmController
+    bus : FakeSMBus
+        The chips' I2C bus (``bus.faults`` injects sensor faults).
+    port : FakeArmSerial
+        The arm's serial link (``port.faults`` injects link and controller faults).
     """
 
     arm: object
@@ -236,6 +240,8 @@ class EmulatedRig:
     world: ContactWorld
     clock: FakeClock
     controller: EmulatedArmController = field(repr=False)
+    bus: FakeSMBus = field(repr=False, default=None)
+    port: FakeArmSerial = field(repr=False, default=None)
 
 
 def emulated_rig(spec, sphere: VirtualSphere, *, kinematics: ArmKinematics | None = None,
@@ -262,8 +268,9 @@ def emulated_rig(spec, sphere: VirtualSphere, *, kinematics: ArmKinematics | Non
     barometer = BMP280(bus, BMP280_ADDRESS, sleep=clock.sleep, clock=clock.monotonic)
     imu = BNO055I2C(bus, BNO055_ADDRESS, sleep=clock.sleep, clock=clock.monotonic)
     sensor = HardwareTactileSensor.from_chips(barometer, imu, clock=clock.monotonic, sleep=world.sleep)
-    arm = SerialArm(FakeArmSerial(controller, clock=clock), spec, clock=clock.monotonic, sleep=world.sleep)
-    return EmulatedRig(arm, sensor, world, clock, controller)
+    port = FakeArmSerial(controller, clock=clock)
+    arm = SerialArm(port, spec, clock=clock.monotonic, sleep=world.sleep)
+    return EmulatedRig(arm, sensor, world, clock, controller, bus, port)
 
 
 __all__ = ["VirtualSphere", "TouchState", "ContactWorld", "EmulatedRig", "aligned_rotation", "emulated_rig"]
