@@ -32,8 +32,8 @@ from explorer.touch import ObjectPrior, Touch
 from reconstruction.gpis import GPIS
 from robots.interface import MoveNotReachedError
 from sensor.contact_detection import PressureContactDetector
-from sensor.normal_estimation import (OrientationNotSettledError, SettlingConfig, estimate_normal,
-                                       oriented_contact)
+from sensor.normal_estimation import (ImuAlignment, OrientationNotSettledError, SettlingConfig,
+                                       estimate_normal, oriented_contact)
 from sensor.oriented_contact import OrientedContact
 from sensor.sim.pad_response import PadResponse
 from sensor.reading import Reading
@@ -171,13 +171,16 @@ class ExplorationLoop:
     recorder : Recorder
     detector : PressureContactDetector
     settling : SettlingConfig
+    alignment : sensor.normal_estimation.ImuAlignment, optional
+        How the IMU's quaternion maps to the pad's orientation (hardware calibration; identity
+        in simulation).
     """
 
     def __init__(self, robot, sensor, kinematics, planner: ApproachPlanner, positioner: Positioner,
                  strategy: TouchStrategy, prior: ObjectPrior, gpis: GPIS,
                  config: LoopConfig = LoopConfig(), recorder: Recorder | None = None,
                  detector: PressureContactDetector | None = None,
-                 settling: SettlingConfig | None = None):
+                 settling: SettlingConfig | None = None, alignment: ImuAlignment | None = None):
         self.robot = robot
         self.sensor = sensor
         self.kin = kinematics
@@ -190,6 +193,7 @@ class ExplorationLoop:
         self.recorder = recorder or Recorder()
         self.detector = detector or PressureContactDetector()
         self.settling = settling or SettlingConfig(**LOOP_SETTLING)
+        self.alignment = alignment
         self.state = ExplorationState(prior)
         self.records: list[TouchRecord] = []
         self.times = PhaseTimes()
@@ -367,7 +371,7 @@ class ExplorationLoop:
         pivot = self.kin.forward_kinematics(q, link=self.kin.spec.pivot_link).position_m
         try:
             contact = oriented_contact(self._contact_readings, pivot, self.kin.pivot_to_pad_in_body,
-                                       self._baseline_pa, settling=self.settling)
+                                       self._baseline_pa, settling=self.settling, alignment=self.alignment)
         except (OrientationNotSettledError, ValueError) as err:  # ValueError: pressure saturated
             self.recorder.event("no_normal", self.robot.time_s(), message=str(err))
             record.kind = "no_normal"

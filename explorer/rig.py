@@ -13,7 +13,7 @@ from typing import Iterator
 
 import numpy as np
 
-from explorer.config import BackendConfig, open_backends
+from explorer.config import BackendConfig, load_calibration, open_backends
 from explorer.positioner import FixedStand
 from explorer.run import PRIOR_GROWTH, PRIOR_MARGIN_M, Rig, RunSettings, object_prior
 from explorer.touch import ObjectPrior
@@ -43,10 +43,15 @@ def open_rig(config: BackendConfig) -> Iterator[Rig]:
     centre = np.asarray(config.object.centre_m or spec.workspace_center_m, float)
     reference = _reference(config)
     prior = _prior(config, reference)
+    calibration = load_calibration(config.sensor)
+    alignment = None if calibration is None else calibration.imu_alignment()
     with open_backends(config, sim_builder=_simulated_backends) as (robot, sensor):
         description = dict(robot=spec.name, sensor=_sensor_description(config), object=config.object.name,
                            backend=f"robot {config.robot.backend}, sensor {config.sensor.backend}")
-        yield Rig(robot, sensor, ArmKinematics(spec), FixedStand(centre), prior, reference, description)
+        if config.sensor.calibration is not None:
+            description["sensor_calibration"] = str(config.sensor.calibration)
+        yield Rig(robot, sensor, ArmKinematics(spec), FixedStand(centre), prior, reference, description,
+                  alignment)
 
 
 def _reference(config: BackendConfig):

@@ -92,6 +92,8 @@ class Rig:
         The true surface, object frame, metres, for error metrics (None on hardware without one).
     description : dict
         Session metadata: ``robot``, ``sensor``, ``object``, ``backend``.
+    alignment : sensor.normal_estimation.ImuAlignment or None
+        The sensor's calibrated IMU mounting (None: identity, as in simulation).
     """
 
     robot: object
@@ -101,6 +103,7 @@ class Rig:
     prior: ObjectPrior
     reference: object | None
     description: dict
+    alignment: object | None = None
 
 
 def explore(settings: RunSettings, out_dir: Path, progress=None, resume: bool = False) -> RunResult:
@@ -155,7 +158,7 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
     recorder = RunRecorder(out_dir, metadata, resume=resume, time_offset_s=time_offset_s)
     loop = ExplorationLoop(rig.robot, rig.sensor, rig.kinematics, planner, rig.positioner,
                            make_strategy(settings.strategy, settings.seed), prior, gpis,
-                           loop_settings, recorder)
+                           loop_settings, recorder, alignment=rig.alignment)
     if recorded is not None:
         loop.restore(recorded.touches)
         recorder.event("resumed", rig.robot.time_s(), time_offset_s=time_offset_s,

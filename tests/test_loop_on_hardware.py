@@ -231,3 +231,28 @@ def test_a_device_failing_mid_run_stops_the_arm_keeps_the_records_and_the_run_re
         assert abs(np.linalg.norm(position) - RADIUS_M) < 1.5e-3
     session = read_session(tmp_path / "session")  # times checked non-decreasing by the reader
     assert session.metadata["end_status"] == "closed"
+
+
+def test_the_calibrated_imu_mounting_is_applied_to_the_measured_normals(spec, kinematics, tmp_path, one_torch_thread):
+    """An IMU mounted 12 deg off: normals are 12 deg off without its calibration and right with it."""
+    from explorer.run import Rig, RunSettings, run_on_rig
+    from sensor.normal_estimation import ImuAlignment
+    from sensor.sim.quaternion import wxyz_from_rotation
+
+    mounting = wxyz_from_rotation(Rotation.from_euler("x", 12.0, degrees=True))
+    centre = np.asarray(spec.workspace_center_m, dtype=float)
+    settings = RunSettings(object="virtual sphere", robot=spec.name, touches=3, eval_every=0, mesh_resolution=24)
+    errors = {}
+    for name, alignment in (("uncalibrated", None), ("calibrated", ImuAlignment(body_in_imu_wxyz=tuple(mounting)))):
+        emulated = emulated_rig(spec, VirtualSphere(centre, RADIUS_M), kinematics=kinematics,
+                                body_in_imu_wxyz=mounting)
+        rig = Rig(emulated.arm, emulated.sensor, kinematics, FixedStand(centre), ObjectPrior(np.zeros(3), np.full(3, 0.06)),
+                  None, dict(robot=spec.name, sensor="emulated", object="sphere", backend="emulators"), alignment)
+        with emulated.arm, emulated.sensor:
+            result = run_on_rig(rig, settings, tmp_path / name)
+        contacts = [r for r in result.records if r.kind in ("contact", "realign")]
+        assert contacts, [r.kind for r in result.records]
+        errors[name] = [np.degrees(np.arccos(np.clip(np.dot(r.normal, r.position_m / np.linalg.norm(r.position_m)),
+                                                     -1, 1))) for r in contacts]
+    assert max(errors["calibrated"]) < 3.0, errors
+    assert min(errors["uncalibrated"]) > 8.0, errors

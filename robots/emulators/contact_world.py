@@ -31,7 +31,7 @@ from sensor.emulators.bno055_chip import BNO055Chip
 from sensor.emulators.clock import FakeClock
 from sensor.emulators.fake_smbus import FakeSMBus
 from sensor.sim.pad_response import PadResponse
-from sensor.sim.quaternion import wxyz_from_rotation
+from sensor.sim.quaternion import rotation_from_wxyz, wxyz_from_rotation
 
 GRAVITY_MPS2 = 9.80665
 BMP280_ADDRESS = 0x76
@@ -142,6 +142,10 @@ class ContactWorld:
         Pressure of the free pad, pascals.
     pad : PadResponse
         Force -> pressure rise.
+    body_in_imu_wxyz : (4,) float
+        The sensor body's orientation in the IMU chip's frame (a mounting offset; identity: ideally
+        mounted). The chip reports ``R_world_body R(body_in_imu)^-1``, as
+        :class:`sensor.normal_estimation.ImuAlignment` assumes.
 
     Attributes
     ----------
@@ -154,7 +158,7 @@ class ContactWorld:
     def __init__(self, controller: EmulatedArmController, kinematics: ArmKinematics, barometer_chip: BMP280Chip,
                  imu_chip: BNO055Chip, clock: FakeClock, sphere: VirtualSphere, *,
                  stiffness_n_per_m: float = 3000.0, ambient_pa: float = 100_900.0,
-                 pad: PadResponse | None = None):
+                 pad: PadResponse | None = None, body_in_imu_wxyz=(1.0, 0.0, 0.0, 0.0)):
         if not stiffness_n_per_m > 0.0:
             raise ValueError(f"stiffness_n_per_m must be > 0, got {stiffness_n_per_m}")
         if not ambient_pa > 0.0:
@@ -170,6 +174,7 @@ class ContactWorld:
         self.stiffness_n_per_m = float(stiffness_n_per_m)
         self.ambient_pa = float(ambient_pa)
         self.pad = pad or PadResponse()
+        self._imu_in_body = rotation_from_wxyz(np.asarray(body_in_imu_wxyz, float)).inv()
         self.max_force_n = 0.0
         self._pivot_to_pad = kinematics.pivot_to_pad_in_body
         self.state = self.update()
@@ -207,9 +212,9 @@ class ContactWorld:
         """Set the chips from the controller's true joint angles now."""
         state = self.pad_state(self.controller.true_q)
         self.barometer_chip.pressure_pa = state.pressure_pa
-        body = Rotation.from_matrix(state.body_rotation)
-        self.imu_chip.quat_wxyz = wxyz_from_rotation(body)
-        self.imu_chip.gravity_mps2 = body.inv().apply([0.0, 0.0, GRAVITY_MPS2])
+        imu = Rotation.from_matrix(state.body_rotation) * self._imu_in_body
+        self.imu_chip.quat_wxyz = wxyz_from_rotation(imu)
+        self.imu_chip.gravity_mps2 = imu.inv().apply([0.0, 0.0, GRAVITY_MPS2])
         self.imu_chip.lin_acc_mps2 = np.zeros(3)
         self.max_force_n = max(self.max_force_n, state.force_n)
         self.state = state
