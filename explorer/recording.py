@@ -81,9 +81,7 @@ class RunRecorder(Recorder):
             return
         contact = self._shifted_contact(record.contact)
         self.session.write_contact(contact)
-        values = [*record.position_m, *record.normal, contact.t_s, contact.force_n,
-                  record.stand_yaw_rad, record.stand_tilt_rad]
-        self._contacts.write(contacts_csv_row(record.index, values))
+        self._contacts.write(contacts_csv_row(record, contact.t_s, contact.force_n))
         self._flush()
 
     def event(self, kind: str, t_s: float, **fields) -> None:
@@ -118,9 +116,10 @@ class RunRecorder(Recorder):
         os.fsync(self._contacts.fileno())
 
 
-def contacts_csv_row(index: int, values) -> str:
-    """One ``contacts.csv`` line (``repr`` of a Python float round-trips exactly)."""
-    return f"{index}," + ",".join(repr(float(v)) for v in values) + "\n"
+def contacts_csv_row(record: TouchRecord, t_s: float, force_n: float) -> str:
+    """The ``contacts.csv`` line of a contact (``repr`` of a Python float round-trips exactly)."""
+    values = [*record.position_m, *record.normal, t_s, force_n, record.stand_yaw_rad, record.stand_tilt_rad]
+    return f"{record.index}," + ",".join(repr(float(v)) for v in values) + "\n"
 
 
 def read_contacts_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:

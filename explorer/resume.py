@@ -150,8 +150,7 @@ def rewrite_contacts_csv(out_dir: Path, touches: list[TouchRecord]) -> None:
                 continue
             t_s = record.t_s if record.contact is None else record.contact.t_s
             force = math.nan if record.contact is None else record.contact.force_n
-            stream.write(contacts_csv_row(record.index, [*record.position_m, *record.normal, t_s, force,
-                                                         record.stand_yaw_rad, record.stand_tilt_rad]))
+            stream.write(contacts_csv_row(record, t_s, force))
         stream.flush()
         os.fsync(stream.fileno())
     os.replace(partial, path)

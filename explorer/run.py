@@ -260,13 +260,12 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
     if truth is not None:
         metrics["reachable_fraction"] = reachable_fraction(planner, truth, n_samples=48, seed=settings.seed)
     metrics["error_curve"] = [dict(touches=n, position_rmse_mm=p, normal_rmse_deg=a) for n, p, a in curve]
-    (out_dir / "metrics.json").write_text(json.dumps(jsonable(metrics), indent=2))
     if mesh is not None:
         try:
             _plots(out_dir, gpis, mesh, truth, contacts, curve, settings)
         except ValueError as exc:  # e.g. too few contacts to frame a figure: say so, keep the rest
             metrics["figure_error"] = str(exc)
-            (out_dir / "metrics.json").write_text(json.dumps(jsonable(metrics), indent=2))
+    (out_dir / "metrics.json").write_text(json.dumps(jsonable(metrics), indent=2))
     recorder.close(error)
     return metrics
 

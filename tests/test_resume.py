@@ -7,6 +7,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+import objects
+
 from explorer.loop import ExplorationLoop, LoopConfig
 from explorer.planner import PlannerConfig
 from explorer.positioner import FixedStand
@@ -42,7 +44,7 @@ def _restored_loop(recorded, settings: RunSettings, prior):
 def test_a_restored_loop_has_the_field_and_the_touches_the_stopped_run_had(stopped_run):
     out, result = stopped_run
     recorded = load_recorded_run(out)
-    prior = object_prior(__import__("objects").load("sphere").mesh)
+    prior = object_prior(objects.load("sphere").mesh)
     loop = _restored_loop(recorded, RunSettings(touches=3, **SPHERE), prior)
 
     assert [r.kind for r in loop.records] == [r.kind for r in result.records]
@@ -60,7 +62,7 @@ def test_a_restored_loop_has_the_field_and_the_touches_the_stopped_run_had(stopp
 def test_restore_refuses_a_used_loop_and_misnumbered_touches(stopped_run):
     out, _ = stopped_run
     recorded = load_recorded_run(out)
-    prior = object_prior(__import__("objects").load("sphere").mesh)
+    prior = object_prior(objects.load("sphere").mesh)
     loop = _restored_loop(recorded, RunSettings(touches=3, **SPHERE), prior)
     with pytest.raises(RuntimeError, match="fresh loop"):
         loop.restore(recorded.touches)
