@@ -70,29 +70,52 @@ def test_recorded_settings_reproduce_the_reconstruction(teleop, recorded_replay)
     np.testing.assert_allclose(recorded_replay.gpis.mean(samples), teleop.gpis.mean(samples), rtol=0, atol=1e-6)
 
 
-def test_a_start_threshold_above_a_press_drops_that_touch_only(session, recorded_replay):
-    """Just above the gentlest press's peak rise, that press is never detected (a higher threshold
-    lets the baseline follow the rise longer, so the rise it sees is only smaller); presses that
-    rested well above it are still detected."""
+def soften_last_press(source, target, factor: float):
+    """Copy the session ``source`` to ``target`` with the last press's pressure rise (over its
+    recorded baseline) scaled by ``factor``: every reading after the previous contact ended."""
+    shutil.copytree(source, target)
+    recorded = read_session(target)
+    baseline = [e for e in recorded.events if e.kind == "contact_start"][-1].fields["baseline_pa"]
+    free_from = [e for e in recorded.events if e.kind == "contact_end"][-2].t_s  # the previous press's end
+    path = target / "readings.csv"
+    header, *rows = path.read_text().splitlines()
+    for i, row in enumerate(rows):
+        values = row.split(",")
+        if float(values[0]) > free_from:
+            values[1] = repr(float(baseline) + factor * (float(values[1]) - baseline))
+            rows[i] = ",".join(values)
+    path.write_text("\n".join([header, *rows]) + "\n")
+    return target
+
+
+def test_a_start_threshold_above_a_press_drops_that_touch_only(session, tmp_path):
+    """Just above a gentle press's peak rise, that press is never detected (a higher threshold lets
+    the baseline follow the rise longer, so the rise it sees is only smaller); presses that rested
+    well above it are still detected, with the same readings.
+
+    How hard the simulated presses rest differs between CPUs (by ~300 Pa), so the premise is made
+    to hold on any machine: the last press is softened, in a copy of the session, to a peak of half
+    the lowest rest of the others; the threshold is placed from the run at hand."""
     peaks, plateaus = press_rises(session)
-    gentlest = int(np.argmin(peaks))
-    threshold = peaks[gentlest] + 10.0
-    others = np.arange(len(peaks)) != gentlest
-    assert np.all(plateaus[others] - threshold > 100.0), (peaks, plateaus)  # room for baseline drift
-    raised = session.run(ReplaySettings(start_threshold_pa=threshold, figures=False))
-    expected = ["miss" if i == gentlest else "contact" for i in range(len(peaks))]
-    assert [t.kind for t in raised.touches] == expected
+    factor = float(0.5 * plateaus[:-1].min() / peaks[-1])
+    softened = SessionReplay(soften_last_press(session.directory, tmp_path / "session", factor))
+    peaks, plateaus = press_rises(softened)
+    threshold = peaks[-1] + 10.0
+    assert threshold > PressureDetectorConfig().start_threshold_pa  # still a press at the default setting
+    assert np.all(plateaus[:-1] - threshold > 0.3 * threshold), (peaks, plateaus)  # room for baseline drift
+    default = softened.run(ReplaySettings(figures=False))
+    raised = softened.run(ReplaySettings(start_threshold_pa=threshold, figures=False))
+    assert [t.kind for t in default.touches] == ["contact"] * len(peaks)
+    assert [t.kind for t in raised.touches] == ["contact"] * (len(peaks) - 1) + ["miss"]
     assert raised.gpis.n_contacts == len(peaks) - 1  # a teleop miss adds no free space either
-    for high, default in zip(raised.touches, recorded_replay.touches):
-        if high.kind != "contact":
-            continue
+    for high, low in zip(raised.touches[:-1], default.touches):
         # the same rested readings; only the baseline (followed longer) and so the force differ,
         # which moves the surface point along the normal by the pad compliance
-        assert [r.t_s for r in high.contact.readings] == [r.t_s for r in default.contact.readings]
-        assert high.baseline_pa > default.baseline_pa
+        assert [r.t_s for r in high.contact.readings] == [r.t_s for r in low.contact.readings]
+        assert high.baseline_pa > low.baseline_pa
         assert max(r.pressure_pa for r in high.contact.readings) - high.baseline_pa > threshold
-        shift = (high.contact.force_n - default.contact.force_n) * session.pad_compliance_m_per_n
-        np.testing.assert_allclose(high.position_m, default.position_m + shift * default.normal, rtol=0, atol=1e-9)
+        shift = (high.contact.force_n - low.contact.force_n) * softened.pad_compliance_m_per_n
+        np.testing.assert_allclose(high.position_m, low.position_m + shift * low.normal, rtol=0, atol=1e-9)
     assert raised.metrics["contacts"] == len(peaks) - 1 and raised.metrics["misses"] == 1
 
 
