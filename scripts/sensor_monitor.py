@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import math
 import sys
 import time
@@ -82,6 +83,10 @@ def _run(args: argparse.Namespace, clock, sleep, out: TextIO) -> int:
             if config.sensor.backend == "sim":
                 raise ValueError(f"{args.config}: sensor.backend = 'sim' has no live sensor to monitor; "
                                  f"choose a hardware backend or use --emulate")
+            if args.calibrate is not None and config.sensor.calibration is not None \
+                    and not config.sensor.calibration.exists():
+                # the file this command is about to create: calibrate without one
+                config = dataclasses.replace(config, sensor=dataclasses.replace(config.sensor, calibration=None))
             calibration = load_calibration(config.sensor)
             sensor = stack.enter_context(open_sensor(config.sensor, clock=clock, sleep=sleep))
             description = f"{config.sensor.backend} ({args.config})"

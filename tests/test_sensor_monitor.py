@@ -199,3 +199,15 @@ def test_cli_needs_a_sensor_source(capsys):
         main([])
     assert info.value.code == 2
     assert "--config" in capsys.readouterr().err
+
+
+def test_cli_calibrate_works_before_the_configured_calibration_file_exists(tmp_path):
+    """The documented first step: the config names the file that --calibrate is about to write."""
+    config = tmp_path / "c.toml"
+    config.write_text('[sensor]\nbackend = "emulated"\ncalibration = "calibration.json"\n')
+    clock = FakeClock()
+    out = io.StringIO()
+    status = main(["--config", str(config), "--calibrate", str(tmp_path / "calibration.json"), "--presses", "3"],
+                  clock=clock.monotonic, sleep=clock.sleep, out=out)
+    assert status == 0, out.getvalue()
+    assert SensorCalibration.load(tmp_path / "calibration.json").mounting.n_presses == 3
