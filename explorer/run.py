@@ -25,6 +25,7 @@ import numpy as np
 from explorer.coverage import reachable_fraction
 from explorer.evaluation import jsonable, reconstruction_errors
 from explorer.loop import LOOP_SETTLING, ExplorationLoop, LoopConfig, TouchRecord
+from explorer.outputs import export_mesh, write_json
 from explorer.planner import ApproachPlanner, PlannerConfig
 from explorer.recording import RunRecorder
 from explorer.resume import check_resumable, load_recorded_run, resume_time_offset, rewrite_contacts_csv
@@ -106,7 +107,8 @@ class Rig:
     alignment: object | None = None
 
 
-def explore(settings: RunSettings, out_dir: Path, progress=None, resume: bool = False) -> RunResult:
+def explore(settings: RunSettings, out_dir: Path, progress=None, resume: bool = False, *,
+            status=None) -> RunResult:
     """Run one simulated exploration and write its outputs to ``out_dir``.
 
     With ``resume=True`` the run already in ``out_dir`` is continued to ``settings.touches``
@@ -117,15 +119,18 @@ def explore(settings: RunSettings, out_dir: Path, progress=None, resume: bool = 
         rig = Rig(scene.arm, scene.sensor, scene.kinematics, scene.stand, object_prior(truth), truth,
                   dict(robot=settings.robot, sensor="simulated BNO055 + BMP280 under polyurethane",
                        object=settings.object, backend="simulation"))
-        return run_on_rig(rig, settings, out_dir, progress, resume)
+        return run_on_rig(rig, settings, out_dir, progress, resume, status=status)
 
 
-def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, resume: bool = False) -> RunResult:
+def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, resume: bool = False, *,
+               status=None) -> RunResult:
     """Explore with ``rig`` and write the run's outputs to ``out_dir`` (see the module docstring).
 
     Whatever stops the run (a device that stops answering, Ctrl-C), what was recorded stays on
     disk, the metrics and mesh are written from it, and the exception is re-raised. A device
     error names the device; the hardware arm stops itself when a call fails while it moves.
+    Ctrl-C while the outputs are written skips the remaining slow steps (reachable fraction,
+    figures) but still writes ``metrics.json`` and closes the session.
 
     Parameters
     ----------
@@ -133,7 +138,10 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
         Continue the run already in ``out_dir``: its touches are read back from the session
         (:mod:`explorer.resume`), the GPIS and the strategy's bookkeeping are rebuilt from them,
         and the loop goes on to ``settings.touches``, appending to the same files. Settings other
-        than the budget and the evaluation must be the recorded ones.
+        than the budget and the evaluation must be the recorded ones. The figures of the earlier
+        parts (``metrics.json``: error curve, wall / simulated / phase times) are carried over.
+    status : callable(str, int, int) or None
+        Told about the slow steps after the last touch: ``status(step, done, total)``.
     """
     from robots.ik import PadIK
 
@@ -150,8 +158,10 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
     metadata = dict(rig.description, seed=settings.seed, configuration=jsonable(configuration))
     recorded = None
     time_offset_s = 0.0
+    earlier: dict = {}
     if resume:
         recorded = load_recorded_run(out_dir)
+        earlier = earlier_metrics(out_dir)
         check_resumable(recorded.metadata.get("configuration", {}), jsonable(configuration))
         time_offset_s = resume_time_offset(recorded.end_time_s, rig.robot.time_s())
         rewrite_contacts_csv(out_dir, recorded.touches)
@@ -192,7 +202,8 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
     finally:
         try:
             metrics = _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve,
-                              _safe_time(rig.robot), time.perf_counter() - wall0, eval_s[0], error)
+                              _safe_time(rig.robot), time.perf_counter() - wall0, eval_s[0], error,
+                              earlier=earlier, status=status)
         except Exception as finish_error:
             if error is None:
                 raise
@@ -227,8 +238,38 @@ def _device_of(error: BaseException) -> str:
     return str(getattr(error, "device", None) or type(error).__name__)
 
 
+def earlier_metrics(out_dir: Path) -> dict:
+    """The ``metrics.json`` of the run in ``out_dir`` before it is resumed ({} if none or unreadable)."""
+    try:
+        metrics = json.loads((Path(out_dir) / "metrics.json").read_text())
+    except (OSError, ValueError):
+        return {}
+    return metrics if isinstance(metrics, dict) else {}
+
+
+def _carry_over(metrics: dict, earlier: dict, curve: list) -> list:
+    """Add the earlier parts' times to ``metrics``; return the whole error curve (earlier points
+    before the first new one, then the new ones)."""
+    if not earlier:
+        return [dict(touches=n, position_rmse_mm=p, normal_rmse_deg=a) for n, p, a in curve]
+    for key in ("wall_time_s", "simulated_time_s", "evaluation_time_s"):
+        if isinstance(earlier.get(key), (int, float)) and np.isfinite(metrics.get(key, np.nan)):
+            metrics[key] = float(earlier[key]) + metrics[key]
+    phases = dict(earlier.get("phase_times_s") or {})
+    for phase, seconds in metrics["phase_times_s"].items():
+        phases[phase] = float(phases.get(phase, 0.0)) + seconds
+    metrics["phase_times_s"] = phases
+    metrics["parts"] = int(earlier.get("parts", 1)) + 1
+    first_new = curve[0][0] if curve else np.inf
+    kept = [point for point in earlier.get("error_curve") or [] if point.get("touches", np.inf) < first_new]
+    return kept + [dict(touches=n, position_rmse_mm=p, normal_rmse_deg=a) for n, p, a in curve]
+
+
 def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_time_s, wall_s, eval_s,
-            error) -> dict:
+            error, earlier=None, status=None) -> dict:
+    """Write the mesh, metrics and figures; close the session. Ctrl-C here skips the remaining slow
+    steps, writes what is known and is re-raised after the session is closed."""
+    interrupted: KeyboardInterrupt | None = None
     records = loop.records
     truth = rig.reference
     kinds = [r.kind for r in records]
@@ -245,28 +286,38 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
     )
     if error is not None:
         metrics["error"] = dict(device=_device_of(error), type=type(error).__name__, message=str(error))
+    metrics["error_curve"] = _carry_over(metrics, earlier or {}, curve)
     mesh = None
-    if gpis.n_contacts:
-        try:
-            mesh = gpis.mesh(resolution=settings.mesh_resolution)
-            mesh.export(out_dir / "reconstruction.ply")
-            recorder.reconstruction(mesh, gpis.n_contacts, recorder.latest_time_s)
-        except ValueError as exc:
-            metrics["reconstruction_error"] = str(exc)
     contacts = np.array([r.position_m for r in records if r.kind == "contact"]).reshape(-1, 3)
     normals = np.array([r.normal for r in records if r.kind == "contact"]).reshape(-1, 3)
-    if mesh is not None and truth is not None:
-        metrics.update(reconstruction_errors(mesh, truth, contacts, normals))
-    if truth is not None:
-        metrics["reachable_fraction"] = reachable_fraction(planner, truth, n_samples=48, seed=settings.seed)
-    metrics["error_curve"] = [dict(touches=n, position_rmse_mm=p, normal_rmse_deg=a) for n, p, a in curve]
-    if mesh is not None:
-        try:
-            _plots(out_dir, gpis, mesh, truth, contacts, curve, settings)
-        except ValueError as exc:  # e.g. too few contacts to frame a figure: say so, keep the rest
-            metrics["figure_error"] = str(exc)
-    (out_dir / "metrics.json").write_text(json.dumps(jsonable(metrics), indent=2))
-    recorder.close(error)
+    try:
+        if gpis.n_contacts:
+            try:
+                mesh = gpis.mesh(resolution=settings.mesh_resolution)
+                export_mesh(mesh, out_dir / "reconstruction.ply")
+                recorder.reconstruction(mesh, gpis.n_contacts, recorder.latest_time_s)
+            except ValueError as exc:
+                metrics["reconstruction_error"] = str(exc)
+        if mesh is not None and truth is not None:
+            metrics.update(reconstruction_errors(mesh, truth, contacts, normals))
+        if truth is not None:
+            steps = 48
+            report = None if status is None else (lambda done: status("reachable fraction", done, steps))
+            metrics["reachable_fraction"] = reachable_fraction(planner, truth, n_samples=steps, seed=settings.seed,
+                                                               progress=report)
+        if mesh is not None:
+            curve_points = [(c["touches"], c["position_rmse_mm"], c["normal_rmse_deg"]) for c in metrics["error_curve"]]
+            try:
+                _plots(out_dir, gpis, mesh, truth, contacts, curve_points, settings)
+            except ValueError as exc:  # e.g. too few contacts to frame a figure: say so, keep the rest
+                metrics["figure_error"] = str(exc)
+    except KeyboardInterrupt as exc:  # keep what is known; the caller learns of the interrupt below
+        interrupted = exc
+        metrics["interrupted_while"] = "writing the outputs (reachable fraction, figures skipped)"
+    write_json(out_dir / "metrics.json", jsonable(metrics))
+    recorder.close(error if error is not None else interrupted)
+    if interrupted is not None and error is None:
+        raise interrupted
     return metrics
 
 
