@@ -16,8 +16,10 @@ $(VENV)/.installed: setup.cfg pyproject.toml
 	$(PY) -m pip install --quiet -e '.[test,hardware,ray]'
 	touch $@
 
+# A fresh folder per run (results/explore-YYYYMMDD-HHMMSS): a recorded run is never overwritten,
+# so `make main` can be run again; continue a stopped one with tactile-explore --out DIR --resume.
 main: install
-	$(VENV)/bin/tactile-explore --out $(OUT)/explore
+	$(VENV)/bin/tactile-explore --out $(OUT)/explore-$$(date +%Y%m%d-%H%M%S)
 
 test: install
 	$(PY) -m pytest

@@ -127,4 +127,6 @@ def read_contacts_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
     data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
     if data.size == 0:
         return np.zeros((0, 3)), np.zeros((0, 3))
+    if data.shape[1] < 7:
+        raise ValueError(f"{path}: expected the columns {CONTACTS_HEADER.strip()}, got {data.shape[1]} per row")
     return data[:, 1:4], data[:, 4:7]

@@ -32,20 +32,20 @@ rows between free moves (retract, stand turn, transfer), which leave gaps (:func
 """
 from __future__ import annotations
 
-import json
 import warnings
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
 
-from explorer import loop
+from explorer import loop, outputs
 from explorer.loop import LoopConfig
 from explorer.planner import PlannerConfig
 from explorer.positioner import StandPose, stand_rotation
 from explorer.evaluation import jsonable, reconstruction_errors
 from explorer.recording import CONTACTS_HEADER
 from explorer.session import SessionReader
+from explorer.session.checks import require_replay_files, usable_readings
 from reconstruction.gpis import GPIS, KERNEL_NAMES
 from sensor.contact_detection import PressureContactDetector, PressureDetectorConfig
 from sensor.normal_estimation import OrientationNotSettledError, SettlingConfig, oriented_contact
@@ -269,11 +269,12 @@ class SessionReplay:
         session_dir = Path(session_dir)
         if (session_dir / "session" / "metadata.json").is_file():
             session_dir = session_dir / "session"
+        require_replay_files(session_dir)
         reader = SessionReader(session_dir)
         self.directory = session_dir
         self.metadata = reader.metadata
         self.truncated_files = reader.truncated_files
-        self.readings = reader.readings()
+        self.readings, self.reading_notes = usable_readings(reader.readings())
         self.joint_states = reader.joint_states()
         self.events = reader.events()
         configuration = self.metadata.get("configuration") or {}
@@ -311,7 +312,7 @@ class SessionReplay:
     # ------------------------------------------------------------------ replay
     def run(self, settings: ReplaySettings = ReplaySettings(), out_dir: Path | None = None) -> ReplayResult:
         """Detect, recompute, refit; write the outputs to ``out_dir`` when given."""
-        notes: list[str] = []
+        notes: list[str] = list(self.reading_notes)
         if self.truncated_files:
             notes.append("cut off mid-record (last incomplete line ignored): " + ", ".join(self.truncated_files))
         detector_config = self._detector_config(settings)
@@ -513,24 +514,24 @@ class SessionReplay:
     def _write(self, result: ReplayResult, settings: ReplaySettings, use_normals: bool) -> None:
         out = result.out_dir
         out.mkdir(parents=True, exist_ok=True)
-        with open(out / "contacts.csv", "w", encoding="utf-8") as f:
-            f.write(CONTACTS_HEADER)
-            for t in result.contacts:
-                values = [*t.position_m, *t.normal, t.contact.t_s, t.contact.force_n,
-                          t.stand_yaw_rad, t.stand_tilt_rad]
-                f.write(f"{t.index}," + ",".join(repr(float(v)) for v in values) + "\n")
+        rows = [CONTACTS_HEADER]
+        for t in result.contacts:
+            values = [*t.position_m, *t.normal, t.contact.t_s, t.contact.force_n,
+                      t.stand_yaw_rad, t.stand_tilt_rad]
+            rows.append(f"{t.index}," + ",".join(repr(float(v)) for v in values) + "\n")
+        outputs.write_text(out / "contacts.csv", "".join(rows))
         metrics = result.metrics
         mesh = None
         if result.gpis.n_contacts:
             resolution = settings.mesh_resolution or int(self.configuration.get("mesh_resolution", 96))
             try:
                 mesh = result.gpis.mesh(resolution=resolution)
-                mesh.export(out / "reconstruction.ply")
+                outputs.export_mesh(mesh, out / "reconstruction.ply")
             except ValueError as exc:
                 metrics["reconstruction_error"] = str(exc)
         if mesh is not None and self.truth is not None:
             metrics.update(reconstruction_errors(mesh, self.truth, result.points_m, result.normals))
-        (out / "metrics.json").write_text(json.dumps(jsonable(metrics), indent=2))
+        outputs.write_json(out / "metrics.json", jsonable(metrics))
         if mesh is not None and self.truth is not None and settings.figures:
             from reconstruction import figures
 

@@ -25,8 +25,14 @@ from explorer.recording import read_contacts_csv
 TRACE_WINDOW_S = 20.0
 
 
-def write_report(run_dir: Path, out_dir: Path | None = None) -> list[Path]:
-    """Write the figures of the run in ``run_dir``; returns the paths written."""
+def write_report(run_dir: Path, out_dir: Path | None = None, notes: list[str] | None = None) -> list[Path]:
+    """Write the figures of the run in ``run_dir``; returns the paths written.
+
+    Each figure that cannot be drawn from what the run holds (no ground truth for a user mesh, no
+    reconstruction after a killed run, no error curve, ...) is named, with the reason, in ``notes``.
+    A ``metrics.json`` or ``contacts.csv`` that cannot be read raises ValueError naming the file.
+    """
+    notes = [] if notes is None else notes
     import trimesh
 
     import objects
@@ -38,22 +44,32 @@ def write_report(run_dir: Path, out_dir: Path | None = None) -> list[Path]:
     run_dir = Path(run_dir)
     if not (run_dir / "contacts.csv").is_file():
         raise FileNotFoundError(f"{run_dir} has no contacts.csv: not an exploration run directory")
+    metrics = _read_metrics(run_dir / "metrics.json", notes)
+    try:
+        points, normals = read_contacts_csv(run_dir / "contacts.csv")
+    except ValueError as error:
+        raise ValueError(f"{run_dir / 'contacts.csv'} cannot be read: {error}") from None
     out = Path(out_dir) if out_dir is not None else run_dir / "report"
     out.mkdir(parents=True, exist_ok=True)
-    metrics = json.loads((run_dir / "metrics.json").read_text()) if (run_dir / "metrics.json").is_file() else {}
-    points, normals = read_contacts_csv(run_dir / "contacts.csv")
     written: list[Path] = []
 
     truth = None
     name = metrics.get("object")
     if name in objects.names():
         truth = objects.load(name).mesh
+    no_truth = (f"no ground truth (object {name!r} is not a registry object)" if name is not None
+                else "no ground truth (metrics.json names no object)")
     mesh_path = run_dir / "reconstruction.ply"
     mesh = trimesh.load(mesh_path, force="mesh") if mesh_path.is_file() else None
     if truth is not None and mesh is not None:
         written.append(figures.error_coloured_views(mesh, truth, points, out / "reconstruction_error.png"))
         if len(objects.sharp_edges(truth)):
             written.append(figures.edge_error_view(truth, mesh, out / "edge_error.png"))
+    else:
+        why = no_truth if truth is None else "no reconstruction.ply (too few contacts, or the run was killed)"
+        notes.append(f"reconstruction_error.png, edge_error.png: {why}")
+    if truth is None or len(points) < 1:
+        notes.append(f"potential_slice.png: {no_truth if truth is None else 'no contacts in contacts.csv'}")
     if truth is not None and len(points) >= 1:
         lo, hi = truth.bounds
         pad = 0.25 * float(np.max(hi - lo))
@@ -64,6 +80,9 @@ def write_report(run_dir: Path, out_dir: Path | None = None) -> list[Path]:
                                                offset_m=float(0.5 * (lo[2] + hi[2])),
                                                path=out / "potential_slice.png"))
     curve = metrics.get("error_curve") or []
+    if not curve:
+        notes.append("error_vs_touches.png: no error curve in metrics.json (no ground truth, fewer than 4 "
+                     "contacts, or the run did not finish)")
     if curve:
         errors = np.array([[c["position_rmse_mm"] * 1e-3 for c in curve]])
         written.append(figures.error_vs_touches({metrics.get("strategy", "run"): errors},
@@ -77,4 +96,23 @@ def write_report(run_dir: Path, out_dir: Path | None = None) -> list[Path]:
             window = [r for r in readings if r.t_s - t0 <= TRACE_WINDOW_S]
             events = PressureContactDetector().process(window)
             written.append(figures.sensor_traces(window, events, out / "sensor_traces.png"))
+        else:
+            notes.append("sensor_traces.png: the session holds no readings")
+    else:
+        notes.append("sensor_traces.png: no session/ directory")
     return written
+
+
+def _read_metrics(path: Path, notes: list[str]) -> dict:
+    """The run's metrics ({} with a note when there is no file; ValueError naming it when corrupt)."""
+    if not path.is_file():
+        notes.append(f"{path.name} is missing (the run was killed before it finished): figures that need "
+                     f"the object or the error curve are not drawn")
+        return {}
+    try:
+        metrics = json.loads(path.read_text())
+    except (ValueError, UnicodeDecodeError) as error:
+        raise ValueError(f"{path} is not valid JSON ({error}); re-run or resume the run to rewrite it") from None
+    if not isinstance(metrics, dict):
+        raise ValueError(f"{path} does not hold a JSON object of metrics")
+    return metrics

@@ -25,27 +25,37 @@ def main(argv: list[str] | None = None) -> int:
     import objects
     import robots
     from explorer.strategies import STRATEGIES
+    from scripts._cli import check_gui, check_object, check_out_dir, check_robot, int_at_least
 
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="tactile-explore", description=__doc__.splitlines()[0])
     parser.add_argument("--config", type=Path, help="rig configuration (.toml or .json); see explorer/config.py")
     parser.add_argument("--object", help=f"registry name ({', '.join(objects.names())}) or a mesh file in "
                                          f"metres (default banana; simulation only)")
     parser.add_argument("--robot", help=f"one of {', '.join(robots.names())} (default armar3; simulation only)")
     parser.add_argument("--strategy", choices=sorted(STRATEGIES), help="default variance")
-    parser.add_argument("--touches", type=int, help="touch budget (default 50)")
-    parser.add_argument("--seed", type=int)
+    parser.add_argument("--touches", type=int_at_least(1), help="touch budget (default 50)")
+    parser.add_argument("--seed", type=int_at_least(0), help="random seed, >= 0 (default 0)")
     parser.add_argument("--no-normals", action="store_true", help="classic GPIS without normals")
-    parser.add_argument("--out", type=Path, default=Path("results/explore"))
+    parser.add_argument("--out", type=Path, default=Path("results/explore"),
+                        help="output directory: new or empty (or the run to continue, with --resume)")
     parser.add_argument("--resume", action="store_true",
                         help="continue the stopped run in --out from its recorded contacts")
     parser.add_argument("--gui", action="store_true", help="show the PyBullet window (simulation only)")
     args = parser.parse_args(argv)
-    if args.touches is not None and args.touches < 1:
-        parser.error("--touches must be at least 1")
     overrides = {k: v for k, v in dict(strategy=args.strategy, touches=args.touches, seed=args.seed).items()
                  if v is not None}
     if args.no_normals:
         overrides["use_normals"] = False
+    if args.config is None:
+        check_object(parser, args.object)
+        check_robot(parser, args.robot)
+        if args.gui:
+            check_gui(parser)
+    else:
+        for flag, value in (("--object", args.object), ("--robot", args.robot), ("--gui", args.gui or None)):
+            if value is not None:
+                parser.error(f"{flag} does not go with --config: set it in the configuration file")
+    check_out_dir(parser, args.out, resume=args.resume)
 
     import torch
 
@@ -57,11 +67,10 @@ def main(argv: list[str] | None = None) -> int:
 
         settings = dataclasses.replace(RunSettings(object=args.object or "banana", robot=args.robot or "armar3",
                                                    gui=args.gui), **overrides)
-        result = _with_progress(settings, lambda progress: explore(settings, args.out, progress, args.resume))
+
+        def run(progress, status):
+            return explore(settings, args.out, progress, args.resume, status=status)
     else:
-        for flag, value in (("--object", args.object), ("--robot", args.robot), ("--gui", args.gui or None)):
-            if value is not None:
-                parser.error(f"{flag} does not go with --config: set it in the configuration file")
         from explorer.config import load_config
         from explorer.rig import open_rig, run_settings
         from explorer.run import run_on_rig
@@ -72,37 +81,113 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(str(error))
         settings = dataclasses.replace(run_settings(config), **overrides)
 
-        def run(progress):
+        def run(progress, status):
             with open_rig(config) as rig:
-                return run_on_rig(rig, settings, args.out, progress, args.resume)
+                return run_on_rig(rig, settings, args.out, progress, args.resume, status=status)
 
-        result = _with_progress(settings, run)
+    result, status = _with_progress(settings, run, args.out, args.resume)
     if result is None:
-        return 1
+        return status
     print(json.dumps({k: result.metrics.get(k) for k in SUMMARY_KEYS}, indent=2))
     print(f"outputs in {args.out}")
     return 0
 
 
-def _with_progress(settings, run):
-    """Run with a progress bar; a failed run prints what stopped it and where its records are."""
+def _is_device_failure(error: BaseException) -> bool:
+    """A sensor chip, arm controller or their link failed (not a bad argument or a bug)."""
+    from robots.hardware.errors import RobotHardwareError
+    from sensor.drivers.errors import DeviceError
+
+    return isinstance(error, (DeviceError, RobotHardwareError, ConnectionError)) or bool(getattr(error, "device", None))
+
+
+def _recorded_touches(out: Path) -> int:
+    """Touches already recorded in the run in ``out`` (the progress bar starts there on --resume)."""
+    import warnings
+
+    from explorer.resume import load_recorded_run
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            return len(load_recorded_run(out).touches)
+        except (OSError, ValueError):
+            return 0
+
+
+def _with_progress(settings, run, out: Path, resume: bool):
+    """Run with a progress bar; returns ``(result, 0)`` or ``(None, exit status)``.
+
+    Whatever stops the run, one line says what and where its records are: a device failure
+    suggests ``--resume`` once the device is back, Ctrl-C suggests ``--resume``, and an error
+    raised before anything was recorded (a bad setting) is a usage error (exit 2) that leaves
+    nothing behind.
+    """
     from tqdm import tqdm
 
-    with tqdm(total=settings.touches, unit="touch", desc=f"{settings.object}/{settings.strategy}") as bar:
+    existed = out.exists()
+    session_before = _session_size(out)
+    initial = _recorded_touches(out) if resume else 0
+    bars: dict = {}
+    with tqdm(total=max(settings.touches, initial), initial=initial, unit="touch",
+              desc=f"{settings.object}/{settings.strategy}") as bar:
         def progress(record):
             bar.update(1)
             bar.set_postfix_str(record.kind)
 
+        def status(step, done, total):
+            if step not in bars:
+                bar.refresh()
+                bars[step] = tqdm(total=total, desc=f"finishing: {step}", leave=False)
+            bars[step].n = done
+            bars[step].refresh()
+
         try:
-            return run(progress)
-        except Exception as error:  # noqa: BLE001 - a device that failed: report it, keep the records
-            bar.close()
+            return run(progress, status), 0
+        except KeyboardInterrupt:
+            kept = _session_size(out) > session_before
+            message = (f"interrupted: everything recorded so far is kept in {out}; continue with --resume"
+                       if kept else "interrupted before anything was recorded")
+        except Exception as error:  # noqa: BLE001 - one line, never a traceback
             device = getattr(error, "device", None)
-            print(f"run stopped: {type(error).__name__}: {error}" + (f" (device: {device})" if device else ""),
-                  file=sys.stderr)
-            print("everything recorded so far is kept; continue with --resume once the device is back",
-                  file=sys.stderr)
-            return None
+            what = f"{type(error).__name__}: {error}" + (f" (device: {device})" if device else "")
+            if _is_device_failure(error):
+                message = (f"run stopped: {what}\neverything recorded so far is kept in {out}; "
+                           f"continue with --resume once the device is back")
+            elif _session_size(out) > session_before:
+                message = f"run stopped: {what}\neverything recorded so far is kept in {out}; continue with --resume"
+            else:
+                for bar_ in bars.values():
+                    bar_.close()
+                bar.close()
+                if not existed:
+                    _remove_if_empty(out)
+                print(f"tactile-explore: error: {error}", file=sys.stderr)
+                return None, 2
+        finally:
+            for bar_ in bars.values():
+                bar_.close()
+    print(message, file=sys.stderr)
+    return None, 130 if message.startswith("interrupted") else 1
+
+
+def _session_size(out: Path) -> int:
+    """Bytes recorded in ``out/session`` (0 when there is none)."""
+    session = out / "session"
+    if not session.is_dir():
+        return 0
+    return sum(p.stat().st_size for p in session.iterdir() if p.is_file())
+
+
+def _remove_if_empty(path: Path) -> None:
+    """Remove ``path`` and its empty subdirectories if no file was written there."""
+    if not path.is_dir():
+        return
+    for child in sorted(path.rglob("*"), reverse=True):
+        if child.is_dir() and not any(child.iterdir()):
+            child.rmdir()
+    if not any(path.iterdir()):
+        path.rmdir()
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import io
 import platform
 import time
 from dataclasses import dataclass
@@ -21,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 import objects
+from explorer import outputs
 from reconstruction.gpis import GPIS
 from reconstruction.metrics import surface_error
 from reconstruction.synthetic_contacts import ContactNoise, sample_contacts
@@ -78,7 +80,7 @@ def evaluate(name: str, n_contacts: int, seeds: int, noise: ContactNoise, resolu
             mesh = reconstruct(method, points, normals, bounds, resolution)
             errors.append(surface_error(mesh, model.mesh, sharp_edges=model.sharp_edges, seed=seed))
             if out is not None and seed == first_seed:
-                mesh.export(out / "meshes" / f"{name}_{method.replace(', ', '_').replace(' ', '_')}.ply")
+                outputs.export_mesh(mesh, out / "meshes" / f"{name}_{method.replace(', ', '_').replace(' ', '_')}.ply")
         position = np.array([e.position_rmse_mm for e in errors])
         edge = [e.edge_rmse_mm for e in errors if e.edge_rmse_mm is not None]
         rows.append(Row(name, method, seeds, float(position.mean()), float(position.std()),
@@ -112,25 +114,40 @@ def markdown(rows: list[Row], n_contacts: int, noise: ContactNoise) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    from scripts._cli import check_object, check_out_dir, float_above, int_at_least
+
+    parser = argparse.ArgumentParser(prog="tactile-gpis-bench", description=__doc__.splitlines()[0])
     parser.add_argument("--objects", default=",".join(objects.names()),
                         help="comma-separated registry names or mesh files")
-    parser.add_argument("--contacts", type=int, default=100)
-    parser.add_argument("--seeds", type=int, default=5)
-    parser.add_argument("--first-seed", type=int, default=100,
+    parser.add_argument("--contacts", type=int_at_least(1), default=100)
+    parser.add_argument("--seeds", type=int_at_least(1), default=5, help="number of sampling seeds, >= 1")
+    parser.add_argument("--first-seed", type=int_at_least(0), default=100,
                         help="contact sampling seeds start here (0-9 were used to choose defaults)")
-    parser.add_argument("--resolution", type=int, default=96, help="meshing samples per side")
-    parser.add_argument("--normal-std-mm", type=float, default=ContactNoise().normal_std_m * 1e3)
-    parser.add_argument("--tangent-std-mm", type=float, default=ContactNoise().tangent_std_m * 1e3)
-    parser.add_argument("--normal-error-deg", type=float, default=ContactNoise().normal_error_mean_deg)
-    parser.add_argument("--out", type=Path, default=None, help="directory for table, CSV and meshes")
+    parser.add_argument("--resolution", type=int_at_least(8), default=96, help="meshing samples per side")
+    parser.add_argument("--normal-std-mm", type=float_above(0.0, inclusive=True),
+                        default=ContactNoise().normal_std_m * 1e3)
+    parser.add_argument("--tangent-std-mm", type=float_above(0.0, inclusive=True),
+                        default=ContactNoise().tangent_std_m * 1e3)
+    parser.add_argument("--normal-error-deg", type=float_above(0.0, inclusive=True),
+                        default=ContactNoise().normal_error_mean_deg)
+    parser.add_argument("--out", type=Path, default=None,
+                        help="directory for table, CSV and meshes (new or empty)")
     args = parser.parse_args(argv)
-
-    noise = ContactNoise(args.normal_std_mm * 1e-3, args.tangent_std_mm * 1e-3, args.normal_error_deg)
+    names = [n.strip() for n in args.objects.split(",")]
+    if not all(names):
+        parser.error(f"--objects {args.objects!r}: empty name")
+    for name in names:
+        check_object(parser, name, "--objects")
+    if args.out is not None:
+        check_out_dir(parser, args.out)
+    try:
+        noise = ContactNoise(args.normal_std_mm * 1e-3, args.tangent_std_mm * 1e-3, args.normal_error_deg)
+    except ValueError as error:
+        parser.error(str(error))
     if args.out is not None:
         (args.out / "meshes").mkdir(parents=True, exist_ok=True)
     rows = []
-    for name in args.objects.split(","):
+    for name in names:
         rows.extend(evaluate(name, args.contacts, args.seeds, noise, args.resolution, args.out,
                              args.first_seed))
         print(f"done {name}", flush=True)
@@ -138,12 +155,13 @@ def main(argv: list[str] | None = None) -> None:
     machine = f"{platform.machine()}, python {platform.python_version()}"
     print(f"\n{text}\n\nMachine: {machine}")
     if args.out is not None:
-        (args.out / "accuracy.md").write_text(text + f"\n\nMachine: {machine}\n")
-        with open(args.out / "accuracy.csv", "w", newline="") as fh:
-            writer = csv.writer(fh)
-            writer.writerow(Row.__dataclass_fields__.keys())
-            for r in rows:
-                writer.writerow(r.__dict__.values())
+        outputs.write_text(args.out / "accuracy.md", text + f"\n\nMachine: {machine}\n")
+        table = io.StringIO()
+        writer = csv.writer(table)
+        writer.writerow(Row.__dataclass_fields__.keys())
+        for r in rows:
+            writer.writerow(r.__dict__.values())
+        outputs.write_text(args.out / "accuracy.csv", table.getvalue())
         print(f"wrote {args.out / 'accuracy.md'}, {args.out / 'accuracy.csv'} and meshes/")
 
 

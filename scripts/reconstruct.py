@@ -14,20 +14,24 @@ from pathlib import Path
 
 def main(argv: list[str] | None = None) -> None:
     from reconstruction.gpis import KERNEL_NAMES
+    from scripts._cli import check_out_dir, float_above, int_at_least
 
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="tactile-reconstruct", description=__doc__.splitlines()[0])
     parser.add_argument("session", type=Path, help="a session directory (or the run directory holding it)")
-    parser.add_argument("--out", type=Path, required=True, help="output directory")
+    parser.add_argument("--out", type=Path, required=True,
+                        help="output directory, new or empty (a recorded run is never overwritten)")
     parser.add_argument("--kernel", default="thin_plate", choices=KERNEL_NAMES)
-    parser.add_argument("--noise", type=float, help="GPIS value noise, metres")
-    parser.add_argument("--normal-noise", type=float, help="GPIS normal noise (per gradient component)")
+    parser.add_argument("--noise", type=float_above(0.0), help="GPIS value noise, metres")
+    parser.add_argument("--normal-noise", type=float_above(0.0), help="GPIS normal noise (per gradient component)")
     parser.add_argument("--no-normals", action="store_true", help="classic GPIS without normals")
-    parser.add_argument("--start-threshold-pa", type=float, help="contact start threshold, Pa above baseline")
-    parser.add_argument("--end-threshold-pa", type=float, help="contact end threshold, Pa above baseline")
-    parser.add_argument("--resolution", type=int, help="mesh grid samples along the longest side")
+    parser.add_argument("--start-threshold-pa", type=float_above(0.0),
+                        help="contact start threshold, Pa above baseline")
+    parser.add_argument("--end-threshold-pa", type=float_above(0.0), help="contact end threshold, Pa above baseline")
+    parser.add_argument("--resolution", type=int_at_least(8), help="mesh grid samples along the longest side")
     args = parser.parse_args(argv)
     if not args.session.is_dir():
         parser.error(f"session directory {args.session} does not exist")
+    check_out_dir(parser, args.out)
 
     import torch
 
@@ -40,7 +44,7 @@ def main(argv: list[str] | None = None) -> None:
             kernel=args.kernel, noise=args.noise, normal_noise=args.normal_noise,
             use_normals=False if args.no_normals else None, mesh_resolution=args.resolution)
         result = replay(args.session, settings, args.out)
-    except ValueError as err:
+    except (ValueError, FileNotFoundError) as err:  # a bad setting, or a session that cannot be replayed
         parser.error(str(err))
     keys = ("touches", "contacts", "misses", "set_aside", "no_normal", "same_press", "recorded_contacts",
             "position_rmse_mm", "normal_rmse_deg", "notes")

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 
 def _non_negative_int(text: str) -> int:
@@ -57,8 +58,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from scripts._cli import check_out_dir, check_robot
+
     parser = build_parser()
     args = parser.parse_args(argv)
+    check_robot(parser, args.robot)
+    if args.seed < 0:
+        parser.error(f"argument --seed: must be at least 0, got {args.seed}")
+    if args.out is not None:
+        check_out_dir(parser, Path(args.out))
     from sensor.evaluation import EvaluationConfig, format_table, run_evaluation, to_json_dict, write_figures
 
     try:

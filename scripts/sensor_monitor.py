@@ -55,8 +55,17 @@ def main(argv: list[str] | None = None, *, clock: Callable[[], float] = time.mon
     """Command-line entry point; returns the exit status. ``clock``/``sleep`` are injectable for tests."""
     from sensor.drivers.errors import DeviceError
 
+    from scripts._cli import check_out_dir
+
     out = out if out is not None else sys.stdout
-    args = _parser().parse_args(argv)
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.record is not None:
+        check_out_dir(parser, args.record, option="--record")
+    if args.csv is not None and args.csv.exists():
+        parser.error(f"--csv {args.csv} already exists; choose a new file (nothing is overwritten)")
+    if args.calibrate is not None and args.calibrate.is_dir():
+        parser.error(f"--calibrate {args.calibrate} is a directory; give the .json file to write")
     try:
         return _run(args, clock, sleep, out)
     except KeyboardInterrupt:

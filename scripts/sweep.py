@@ -15,8 +15,9 @@ from pathlib import Path
 
 def main(argv: list[str] | None = None) -> int:
     from explorer.sweep import SweepConfig, run_sweep
+    from scripts._cli import check_out_dir, check_ray_address
 
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="tactile-sweep", description=__doc__.splitlines()[0])
     parser.add_argument("--objects", default="sphere,box",
                         help="comma-separated registry names or mesh files (metres)")
     parser.add_argument("--strategies", default="random,variance", help="comma-separated")
@@ -36,6 +37,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--seeds must be at least 1")
     if args.workers < 1:
         parser.error("--workers must be at least 1")
+    for option, value, minimum in (("--touches", args.touches, 1), ("--eval-every", args.eval_every, 0),
+                                   ("--mesh-resolution", args.mesh_resolution, 8)):
+        if value < minimum:
+            parser.error(f"{option} must be at least {minimum}, got {value}")
+    check_out_dir(parser, args.out, reusable=True)
+    check_ray_address(parser, args.ray)
     try:
         config = SweepConfig(objects=_names(args.objects), strategies=_names(args.strategies),
                              seeds=tuple(range(args.seeds)),

@@ -6,7 +6,11 @@
 Keyboard (PyBullet window): arrows jog the pad in x / y, page up / down in z, ``r`` saves a
 reconstruction snapshot, ``q`` quits. Contacts are recorded when the pad rests in contact; the red
 cross marks the suggested next touch (the most uncertain point of the reconstruction).
-A script is a JSON list of ``{"duration_s", "linear_mps", "angular_radps", "buttons"}`` steps.
+A script is a JSON list of ``{"duration_s", "linear_mps", "angular_radps", "buttons"}`` steps:
+each holds the pad velocity (world frame: m/s and rad/s; buttons from ``record``, ``quit``) for its
+duration. The pad starts at the ready pose: on the line through the centre of the object's rough
+box along the world direction (0.9, 0, -0.45) (normalised; away from the robot and down), 2 cm
+outside the box's bounding sphere, its face towards the object (``explorer/teleop/simulated.py``).
 """
 from __future__ import annotations
 
@@ -17,8 +21,9 @@ from pathlib import Path
 
 def main(argv: list[str] | None = None) -> None:
     import objects
+    from scripts._cli import check_gui, check_object, check_out_dir, check_robot
 
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="tactile-teleop", description=__doc__.splitlines()[0])
     parser.add_argument("--object", required=True,
                         help=f"registry name ({', '.join(objects.names())}) or a mesh file in metres")
     parser.add_argument("--device", default="keyboard", choices=("keyboard", "spacemouse"))
@@ -31,6 +36,18 @@ def main(argv: list[str] | None = None) -> None:
         parser.error("--headless needs --script (nobody can steer without a window)")
     if args.script is not None and not args.script.is_file():
         parser.error(f"script file {args.script} does not exist")
+    check_object(parser, args.object)
+    check_robot(parser, args.robot)
+    check_out_dir(parser, args.out)
+    if not args.headless:
+        check_gui(parser, "the window", "pass --headless with --script")
+    if args.script is not None:
+        from explorer.teleop.devices import ScriptedDevice
+
+        try:  # read it now: a bad script must fail before the scene is built or --out is created
+            ScriptedDevice.from_json(args.script, lambda: 0.0)
+        except ValueError as err:
+            parser.error(str(err))
 
     import torch
 

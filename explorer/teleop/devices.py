@@ -213,7 +213,11 @@ class ScriptedDevice(InputDevice):
     @classmethod
     def from_json(cls, path: Path, clock: Callable[[], float]) -> "ScriptedDevice":
         """A script file: a JSON list of ``{"duration_s", "linear_mps", "angular_radps", "buttons"}``."""
-        items = json.loads(Path(path).read_text())
+        try:
+            items = json.loads(Path(path).read_text())
+        except (ValueError, UnicodeDecodeError) as err:
+            raise ValueError(f"script file {path} is not JSON ({err}); a script is a JSON list of "
+                             f'{{"duration_s", "linear_mps", "angular_radps", "buttons"}} steps') from None
         if not isinstance(items, list):
             raise ValueError(f"{path}: a script is a JSON list of steps")
         steps = []
