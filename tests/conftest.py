@@ -11,3 +11,31 @@ def one_torch_thread():
     torch.set_num_threads(1)
     yield
     torch.set_num_threads(before)
+
+
+def pytest_addoption(parser):
+    parser.addoption(
+        "--perturb-physics", type=float, default=0.0, metavar="REL",
+        help="scale every PyBullet time step by (1 + REL), e.g. 1e-9: a change below any physical "
+             "meaning that finds tests which pin one machine's exact simulated trajectory",
+    )
+
+
+@pytest.fixture(autouse=True, scope="session")
+def perturbed_physics(request):
+    """With ``--perturb-physics REL``, every simulated world steps by ``dt * (1 + REL)`` (the
+    simulator itself is untouched: its ``pybullet.setTimeStep`` call is wrapped for the session)."""
+    relative = request.config.getoption("--perturb-physics")
+    if not relative:
+        yield
+        return
+    import pybullet
+
+    original = pybullet.setTimeStep
+
+    def perturbed(time_step, *args, **kwargs):
+        return original(time_step * (1.0 + relative), *args, **kwargs)
+
+    pybullet.setTimeStep = perturbed
+    yield
+    pybullet.setTimeStep = original

@@ -45,8 +45,11 @@ def test_runs_are_reproducible_from_the_seed(tmp_path):
                 tmp_path / "a")
     b = explore(RunSettings(object="sphere", touches=3, seed=5, eval_every=0, mesh_resolution=32),
                 tmp_path / "b")
-    np.testing.assert_array_equal(read_contacts_csv(a.out_dir / "contacts.csv")[0],
-                                  read_contacts_csv(b.out_dir / "contacts.csv")[0])
+    # the same seed on the same machine: the same bytes (README, "Reproducible")
+    assert len(read_contacts_csv(a.out_dir / "contacts.csv")[0]) >= 1
+    assert (a.out_dir / "contacts.csv").read_bytes() == (b.out_dir / "contacts.csv").read_bytes()
+    assert ((a.out_dir / "session" / "readings.csv").read_bytes()
+            == (b.out_dir / "session" / "readings.csv").read_bytes())
 
 
 def test_an_interrupted_run_keeps_every_contact(tmp_path):
