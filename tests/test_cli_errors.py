@@ -265,3 +265,22 @@ def test_sensor_monitor_never_overwrites_a_recording(recorded_run, tmp_path, cap
     (tmp_path / "m.csv").write_text("t\n")
     status, err = run_main(main, ["--emulate", "--csv", str(tmp_path / "m.csv")], capsys)
     assert status == 2 and "--csv" in err and (tmp_path / "m.csv").read_text() == "t\n"
+
+
+def test_the_progress_bar_of_a_resumed_run_starts_at_the_recorded_touches(recorded_run, capsys):
+    from types import SimpleNamespace
+
+    from scripts.explore import _with_progress
+
+    settings = SimpleNamespace(touches=5, object="sphere", strategy="variance")
+    seen = []
+
+    def run(progress, status):
+        for _ in range(3):
+            progress(SimpleNamespace(kind="contact"))
+        seen.append(True)
+        return "done"
+
+    assert _with_progress(settings, run, recorded_run, resume=True) == ("done", 0)
+    err = capsys.readouterr().err
+    assert seen and "2/5" in err and "5/5" in err and "0/5" not in err
