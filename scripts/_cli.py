@@ -58,7 +58,7 @@ def check_object(parser: argparse.ArgumentParser, name: str | None, option: str 
         if not path.is_file():
             parser.error(f"{option} {name}: mesh file not found")
         return
-    parser.error(f"{option} {name!r}: unknown object; choose one of {', '.join(objects.names())} "
+    parser.error(f"{option}: unknown object {name!r}; choose one of {', '.join(objects.names())} "
                  f"or give a mesh file (.obj, .stl, .ply)")
 
 
@@ -66,7 +66,7 @@ def check_robot(parser: argparse.ArgumentParser, name: str | None, option: str =
     import robots
 
     if name is not None and name not in robots.names():
-        parser.error(f"{option} {name!r}: unknown robot; choose one of {', '.join(robots.names())}")
+        parser.error(f"{option}: unknown robot {name!r}; choose one of {', '.join(robots.names())}")
 
 
 def holds_run(path: Path) -> bool:

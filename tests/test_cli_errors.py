@@ -44,9 +44,9 @@ def snapshot(directory):
     (["--seed", "-1"], "argument --seed: must be at least 0, got -1"),
     (["--seed", "x"], "argument --seed: expected an integer"),
     (["--touches", "0"], "argument --touches: must be at least 1"),
-    (["--object", "nosuch"], "--object 'nosuch': unknown object; choose one of"),
+    (["--object", "nosuch"], "--object: unknown object 'nosuch'; choose one of"),
     (["--object", "missing.stl"], "--object missing.stl: mesh file not found"),
-    (["--robot", "r2d2"], "--robot 'r2d2': unknown robot; choose one of"),
+    (["--robot", "r2d2"], "--robot: unknown robot 'r2d2'; choose one of"),
     (["--strategy", "greedy"], "argument --strategy: invalid choice"),
 ])
 def test_explore_refuses_bad_arguments_before_anything_is_written(tmp_path, capsys, args, message):
@@ -246,7 +246,7 @@ def test_sweep_to_an_unreachable_ray_cluster_fails_at_once(tmp_path, capsys):
 @pytest.mark.parametrize("args, message", [
     (["--seeds", "0"], "argument --seeds: must be at least 1"),
     (["--contacts", "0"], "argument --contacts: must be at least 1"),
-    (["--objects", "teapot"], "--objects 'teapot': unknown object"),
+    (["--objects", "teapot"], "--objects: unknown object 'teapot'"),
     (["--normal-std-mm", "-1"], "argument --normal-std-mm"),
 ])
 def test_gpis_bench_refuses_bad_arguments_and_writes_nothing(tmp_path, capsys, args, message):
