@@ -140,11 +140,16 @@ class GPIS:
         values : (k,) float, implicit-function values (negative outside)
         noise : float, optional
             Their standard deviation; defaults to ``noise``.
+
+        Any number of points at once. If the update fails (e.g. ``NotPositiveDefiniteError``) the
+        GPIS is left exactly as it was before the call.
         """
         points = _finite_array(points, "points", (None, 3))
         values = _finite_array(values, "values", (len(points),))
         if not self.n_contacts:
             raise ValueError("add_values needs at least one contact first (fit or add)")
+        if noise is not None and not (np.isfinite(noise) and noise > 0):
+            raise ValueError(f"noise must be a positive finite standard deviation, got {noise!r}")
         if self.bounds is not None:
             _check_inside(points, self.bounds)
         self._append(points, values, None, noise)
@@ -349,6 +354,19 @@ class GPIS:
         return not isinstance(self.kernel, ReferenceThinPlateKernel)
 
     def _append(self, points, values, normals, noise=None):
+        """Add observation rows and update the factor; on any failure the GPIS is left as it was."""
+        saved = {name: getattr(self, name) for name in _OBSERVATION_STATE}
+        n_factor = None if self._factor is None else self._factor.n
+        try:
+            self._append_unguarded(points, values, normals, noise)
+        except BaseException:
+            for name, value in saved.items():
+                setattr(self, name, value)
+            if self._factor is not None and n_factor is not None:
+                self._factor.truncate(n_factor)
+            raise
+
+    def _append_unguarded(self, points, values, normals, noise):
         if not self._positive_definite:
             self._stage(points, values, normals, noise)
             self._factor_all()
@@ -473,6 +491,11 @@ class VarianceTracker:
             grown[:, :used] = self._Wt[:, :used]
             self._Wt = grown
         self._Wt[:, used:need] = new_rows.T
+
+
+#: Attributes an append replaces (never mutates in place), restored when an append fails.
+_OBSERVATION_STATE = ("_obs_points", "_row_point", "_row_comp", "_y", "_noise_var", "_z", "_alpha",
+                      "_factor", "_lu", "_generation")
 
 
 # ---------------------------------------------------------------------- field evaluation

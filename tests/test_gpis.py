@@ -262,3 +262,64 @@ def test_quadratic_trend_covariance_is_consistent_with_its_features():
     cov = trend.joint_covariance(x, x)
     np.testing.assert_allclose(cov[:, 0, :, 0], 4.0 * np.outer(feats[:, 0], feats[:, 0]))
     np.testing.assert_allclose(np.diagonal(cov[:, 0, :, 0]), trend.variance(x))
+
+
+def _free_space_points(n, seed):
+    """(n, 3) points outside the 5 cm sphere, inside BOUNDS, with f = -(distance to the sphere)."""
+    v = random_directions(n, seed)
+    radii = np.random.default_rng(seed + 1).uniform(0.055, 0.075, n)
+    return v * radii[:, None], RADIUS - radii
+
+
+def test_add_values_accepts_a_block_larger_than_the_spare_capacity():
+    """Issue 10: 1,000 values at once after 200 contacts with normals (800 rows, tail of 512)."""
+    points, normals = sphere_contacts(200, seed=5)
+    free, values = _free_space_points(1000, seed=6)
+    gp = GPIS(bounds=BOUNDS).fit(points, normals)
+    candidates = 0.07 * random_directions(300, 9)
+    tracker = gp.variance_tracker(candidates)
+    tracker.variance()
+    gp.add_values(free, values, noise=2e-3)
+    chunked = GPIS(bounds=BOUNDS).fit(points, normals)
+    for s in range(0, 1000, 100):
+        chunked.add_values(free[s:s + 100], values[s:s + 100], noise=2e-3)
+    refit = GPIS(bounds=BOUNDS).fit(points, normals).add_values(free[:1], values[:1], noise=2e-3)
+    refit.add_values(free[1:], values[1:], noise=2e-3)
+    refit._factor_all()  # one dense factorisation of all rows: the refit answer
+    x = 0.07 * np.random.default_rng(7).uniform(-1, 1, (300, 3))
+    for other in (chunked, refit):
+        np.testing.assert_allclose(gp.mean(x), other.mean(x), atol=2e-6)
+        np.testing.assert_allclose(gp.variance(x), other.variance(x), rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(tracker.variance(), refit.variance(candidates), rtol=1e-6, atol=1e-12)
+
+
+@pytest.mark.parametrize("failure", ["factor", "bookkeeping"])
+def test_a_failed_add_values_leaves_the_gpis_unchanged(failure, monkeypatch):
+    import reconstruction.cholesky as cholesky
+
+    points, normals = sphere_contacts(60, seed=5)
+    free, values = _free_space_points(700, seed=6)
+    gp = GPIS(bounds=BOUNDS, noise=1e-3).fit(points, normals)
+    gp.add_values(free[:50], values[:50])  # rows in the factor's tail, so a rollback must cut it
+    x = 0.07 * np.random.default_rng(7).uniform(-1, 1, (100, 3))
+    mean, variance, rows = gp.mean(x), gp.variance(x), gp.n_rows
+    with monkeypatch.context() as patch:
+        if failure == "factor":
+            def not_pd(matrix):
+                raise cholesky.NotPositiveDefiniteError("injected")
+            patch.setattr(cholesky, "_cholesky", not_pd)
+            error = cholesky.NotPositiveDefiniteError
+        else:  # the factor grew, then the bookkeeping after it failed
+            def broken(*args, **kwargs):
+                raise MemoryError("injected")
+            patch.setattr(gp, "_stage", broken)
+            error = MemoryError
+        with pytest.raises(error):
+            gp.add_values(free[50:], values[50:])
+    assert gp.n_rows == rows
+    np.testing.assert_array_equal(gp.mean(x), mean)
+    np.testing.assert_allclose(gp.variance(x), variance, rtol=1e-12, atol=1e-15)
+    gp.add_values(free[50:], values[50:])  # still usable, and equal to a clean build
+    clean = GPIS(bounds=BOUNDS, noise=1e-3).fit(points, normals)
+    clean.add_values(free[:50], values[:50]).add_values(free[50:], values[50:])
+    np.testing.assert_allclose(gp.mean(x), clean.mean(x), atol=2e-6)
