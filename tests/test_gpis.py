@@ -323,3 +323,47 @@ def test_a_failed_add_values_leaves_the_gpis_unchanged(failure, monkeypatch):
     clean = GPIS(bounds=BOUNDS, noise=1e-3).fit(points, normals)
     clean.add_values(free[:50], values[:50]).add_values(free[50:], values[50:])
     np.testing.assert_allclose(gp.mean(x), clean.mean(x), atol=2e-6)
+
+
+def test_the_kernel_declares_how_the_system_is_solved():
+    """A kernel instance declaring itself indefinite is solved by LU (refit per add) and has no
+    variance tracker; the answers equal the Cholesky path's for the same (in fact definite) kernel."""
+    from reconstruction.kernels import ThinPlateKernel
+
+    class DeclaredIndefinite(ThinPlateKernel):
+        positive_definite = False
+
+    points, normals = sphere_contacts(40, seed=2)
+    radius = float(np.linalg.norm(np.subtract(*BOUNDS)))
+    lu = GPIS(kernel=DeclaredIndefinite(radius), bounds=BOUNDS).fit(points[:30], normals[:30])
+    chol = GPIS(kernel=ThinPlateKernel(radius), bounds=BOUNDS).fit(points[:30], normals[:30])
+    for p, n in zip(points[30:], normals[30:]):
+        lu.add(p, n)
+        chol.add(p, n)
+    assert not lu.positive_definite and chol.positive_definite
+    x = 0.07 * np.random.default_rng(7).uniform(-1, 1, (100, 3))
+    np.testing.assert_allclose(lu.mean(x), chol.mean(x), atol=2e-6)
+    np.testing.assert_allclose(lu.variance(x), chol.variance(x), rtol=1e-6, atol=1e-12)
+    with pytest.raises(ValueError, match="positive definite"):
+        lu.variance_tracker(x)
+    with pytest.raises(RuntimeError, match="not positive definite"):
+        lu.whiten(np.zeros(lu.n_rows))
+
+
+def test_factor_surface_for_trackers_is_consistent():
+    """whiten / factor_rows / cross_covariance(start, stop) against a dense factorisation."""
+    points, normals = sphere_contacts(30, seed=4)
+    gp = GPIS(bounds=BOUNDS).fit(points[:20], normals[:20])
+    generation = gp.generation
+    gp.add(points[20:], normals[20:])
+    assert gp.generation == generation  # an incremental add is not a refit
+    x = 0.07 * random_directions(50, 3)
+    k = gp.cross_covariance(x)
+    np.testing.assert_allclose(gp.cross_covariance(x, 8, 90), k[8:90])
+    L = gp.factor_rows(0, gp.n_rows)
+    np.testing.assert_allclose(L @ gp.whiten(k), k, atol=1e-10 * np.abs(k).max())
+    np.testing.assert_allclose(gp.factor_rows(40, 100), L[40:100, :100])
+    prior = gp.prior_variance(x) - np.einsum("ij,ij->j", gp.whiten(k), gp.whiten(k))
+    np.testing.assert_allclose(prior, gp.variance(x), rtol=1e-9, atol=1e-15)
+    gp.fit(points, normals)
+    assert gp.generation == generation + 1
