@@ -8,8 +8,8 @@ Sizes and accuracy of the registry objects: objects/README.md.
 """
 from objects.catalogue import names
 from objects.features import sharp_edges
-from objects.loading import UNITS, default_cache_dir, in_metres, is_mesh_file_name, load, units_scale
+from objects.loading import UNITS, default_cache_dir, file_label, in_metres, is_mesh_file_name, load, units_scale
 from objects.model import ObjectModel
 
-__all__ = ["UNITS", "ObjectModel", "default_cache_dir", "in_metres", "is_mesh_file_name", "load", "names",
+__all__ = ["UNITS", "ObjectModel", "default_cache_dir", "file_label", "in_metres", "is_mesh_file_name", "load", "names",
            "sharp_edges", "units_scale"]

@@ -53,21 +53,35 @@ def is_mesh_file_name(name_or_path) -> bool:
             and pathlib.Path(name_or_path).suffix.lower() in MESH_SUFFIXES)
 
 
+def file_label(name_or_path: str | os.PathLike) -> str:
+    """A short name usable in file names: a registry name as is, ``generated:mug/3`` ->
+    ``generated-mug-3``, a mesh file by its stem."""
+    if generated.is_generated_name(name_or_path):
+        family, seed = generated.parse_name(name_or_path)
+        return f"generated-{family}-{seed}"
+    path = pathlib.Path(name_or_path)
+    return path.stem if path.suffix else str(name_or_path)
+
+
 def in_metres(name_or_path: str | os.PathLike, units: str = "m", *,
               cache_dir: str | os.PathLike | None = None) -> str:
     """The name to pass on for ``name_or_path`` whose mesh file is in ``units``.
 
-    Registry and generated names, and mesh files in metres, come back unchanged. A mesh file in
+    Registry and generated names, and mesh files in metres, come back unchanged (a mesh file and a
+    generated name are checked: the errors of :func:`load`). A mesh file in
     other units is loaded (checked, repaired) with that scale, and the path of its cleaned copy in
     metres (in the cache) is returned, so code that only takes a name (the simulation, a sweep
     worker, a resumed run) loads the right size. The command-line ``--units`` flag uses this.
     """
     factor = units_scale(units)
-    if factor == 1.0 or not is_mesh_file_name(name_or_path):
-        if factor != 1.0:
-            raise ValueError(f"--units {units} applies to mesh files only, not to {str(name_or_path)!r}")
-        return str(name_or_path)
-    return str(load(name_or_path, scale=factor, cache_dir=cache_dir).mesh_path)
+    if is_mesh_file_name(name_or_path):
+        model = load(name_or_path, scale=factor, cache_dir=cache_dir)  # checks it now, not mid-run
+        return str(name_or_path) if factor == 1.0 else str(model.mesh_path)
+    if factor != 1.0:
+        raise ValueError(f"--units {units} applies to mesh files only, not to {str(name_or_path)!r}")
+    if generated.is_generated_name(name_or_path):
+        generated.parse_name(name_or_path)
+    return str(name_or_path)
 
 
 def load(name_or_path: str | os.PathLike, *, scale: float | None = None,
@@ -181,13 +195,18 @@ def _check_size(path: pathlib.Path, mesh: trimesh.Trimesh, scale: float) -> None
     if fits:
         unit = min(fits, key=lambda u: abs(np.log(raw * UNITS[u] / TYPICAL_EXTENT_M)))
         hint = (f"; the file is likely in {UNIT_NAMES[unit]}: pass --units {unit} "
-                f"(scale={UNITS[unit]:g} from Python), which makes it {raw * UNITS[unit] * 1e3:.4g} mm")
-    raise ValueError(f"{path}: largest extent {largest * 1e3:.4g} mm (scale {scale:g}) is outside "
+                f"(scale={UNITS[unit]:g} from Python), which makes it {_mm(raw * UNITS[unit])} mm")
+    raise ValueError(f"{path}: largest extent {_mm(largest)} mm (scale {scale:g}) is outside "
                      f"{low * 1e3:g} mm .. {high * 1e3:g} mm for a hand-held object{hint}")
 
 
-def _repair(path: pathlib.Path, mesh: trimesh.Trimesh) -> list[str]:
-    """Make ``mesh`` watertight with outward normals in place; return what was changed.
+def _mm(length_m: float) -> str:
+    return f"{length_m * 1e3:.2f}" if length_m < 0.01 else f"{length_m * 1e3:.0f}"
+
+
+def _repair(path: pathlib.Path, mesh: trimesh.Trimesh, orient: bool = True) -> list[str]:
+    """Make ``mesh`` watertight with consistent winding, and with outward normals unless ``orient``
+    is False (a part that may be a cavity), in place; return what was changed.
 
     Raises ValueError naming the file when the mesh stays open or non-manifold.
     """
@@ -219,7 +238,7 @@ def _repair(path: pathlib.Path, mesh: trimesh.Trimesh) -> list[str]:
         repairs.append("made face winding consistent")
         if not mesh.is_winding_consistent:
             raise ValueError(f"{path}: face winding cannot be made consistent (non-orientable surface?)")
-    if mesh.volume < 0:
+    if orient and mesh.volume < 0:
         mesh.invert()
         repairs.append("inverted faces so normals point outward")
     return repairs
@@ -241,42 +260,54 @@ def _remove_internal_face_pairs(mesh: trimesh.Trimesh) -> int:
     return int(np.sum(paired))
 
 
-def _merge_parts(path: pathlib.Path, mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, list[str]]:
-    """The outer surface of a mesh made of several closed parts (a convex decomposition, say).
+def _parts_as_written(path: pathlib.Path, scale: float) -> list[trimesh.Trimesh] | None:
+    """The closed parts of a file whose parts touch (an OBJ of several objects keeps each part's own
+    vertices), or None when the file's own vertex sharing does not give two or more closed parts."""
+    try:
+        raw = trimesh.load(path, file_type=path.suffix.lower().lstrip("."), force="mesh", process=False)
+    except Exception:  # noqa: BLE001 - read once already; any failure here means "no parts"
+        return None
+    parts = raw.split(only_watertight=False)
+    for part in parts:
+        part.apply_scale(scale)
+        part.merge_vertices()
+    if len(parts) < 2 or not all(part.is_watertight for part in parts):
+        return None
+    return list(parts)
+
+
+def _merge_parts(path: pathlib.Path, parts: list[trimesh.Trimesh]) -> tuple[trimesh.Trimesh, list[str]]:
+    """The outer surface of several closed parts (a convex decomposition, say).
 
     Parts with outward normals are united (manifold3d through trimesh); a part with inward normals
-    inside the others is a cavity and is subtracted. Returns the mesh and what was done.
+    inside the others is a cavity and is subtracted. Returns the mesh and what was done (nothing
+    for one solid with cavities: that is a valid hollow object as it stands).
     """
-    parts = mesh.split(only_watertight=False)
-    if len(parts) < 2:
-        return mesh, []
     solids = [part for part in parts if part.volume > 0]
-    holes = [part for part in parts if part.volume <= 0]
-    flipped = 0
-    for hole in holes:
-        hole.invert()
-    if solids:
-        outer = trimesh.boolean.union(solids, engine="manifold") if len(solids) > 1 else solids[0]
-    else:
-        outer = None
-    cavities = [h for h in holes if outer is not None and np.all(outer.contains(h.vertices))]
-    for hole in holes:
-        if not any(hole is c for c in cavities):
-            solids.append(hole)  # an inside-out part, not a cavity
-            flipped += 1
+    inward = [part for part in parts if part.volume <= 0]
+    outer = trimesh.boolean.union(solids, engine="manifold") if len(solids) > 1 else (solids or [None])[0]
+    cavities = [part for part in inward if outer is not None and np.all(outer.contains(part.vertices))]
+    flipped = [part for part in inward if not any(part is cavity for cavity in cavities)]
+    for part in flipped:  # an inside-out part, not a cavity
+        part.invert()
+    united = solids + flipped
     if flipped:
-        outer = trimesh.boolean.union(solids, engine="manifold")
+        outer = trimesh.boolean.union(united, engine="manifold") if len(united) > 1 else united[0]
     if cavities:
+        for cavity in cavities:
+            cavity.invert()
         outer = trimesh.boolean.difference([outer, *cavities], engine="manifold")
-    what = (f"merged {len(parts)} overlapping or touching parts into their outer surface (boolean union)"
-            + (f", {len(cavities)} inner shells kept as cavities" if cavities else "")
-            + (f", {flipped} inside-out parts turned outward first" if flipped else ""))
-    pieces = outer.body_count
-    if pieces > 1:
-        what += f"; {pieces} separate pieces remain (they do not touch)"
     if not (outer.is_watertight and outer.volume > 0):
         raise ValueError(f"{path}: the union of its {len(parts)} parts is not a closed surface; "
                          "merge them in a mesh editor")
+    if len(united) < 2:
+        return outer, [f"turned {len(flipped)} inside-out part outward"] if flipped else []
+    what = (f"merged {len(united)} overlapping or touching parts into their outer surface (boolean union)"
+            + (f", {len(flipped)} of them turned outward first" if flipped else "")
+            + (f", {len(cavities)} inner shells kept as cavities" if cavities else ""))
+    pieces = sum(1 for body in outer.split(only_watertight=False) if body.volume > 0)
+    if pieces > 1:
+        what += f"; {pieces} separate pieces remain (they do not touch)"
     return outer, [what]
 
 
@@ -303,9 +334,19 @@ def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path) -> Obj
     _check_size(path, mesh, scale)
     removed = _remove_internal_face_pairs(mesh)
     repairs = [f"removed {removed} coincident faces where parts touch"] if removed else []
-    repairs += _repair(path, mesh)
-    mesh, merged = _merge_parts(path, mesh)
-    repairs += merged
+    # Parts meet at edges shared by more than two faces; split there (trimesh's face adjacency
+    # skips such edges), repair each part, then unite them.
+    parts = mesh.split(only_watertight=False)
+    if len(parts) > 1 and not all(part.is_watertight for part in parts):
+        parts = _parts_as_written(path, scale) or parts
+    if len(parts) < 2:
+        repairs += _repair(path, mesh)
+    else:
+        for part in parts:
+            repairs += _repair(path, part, orient=False)
+        mesh, merged = _merge_parts(path, parts)
+        repairs += merged
+    repairs = list(dict.fromkeys(repairs))
     if repairs:
         warnings.warn(f"{path}: repaired mesh: {'; '.join(repairs)}", stacklevel=3)
 
