@@ -8,7 +8,7 @@ Public names: :data:`FAMILIES` (family name -> :class:`Family` with its paramete
 from objects.generated.building import (SIZE_RANGE_M, build_mesh, is_generated_name, object_name, parameters,
                                         parse_name)
 from objects.generated.families import FAMILIES, Choice, Family, Uniform
-from objects.generated.splits import HELD_OUT, HELD_OUT_SEEDS, TUNING, TUNING_SEEDS
+from objects.generated.splits import HELD_OUT, HELD_OUT_SEEDS, TUNING, TUNING_SEEDS, VARIANT_KEYS
 
 __all__ = ["FAMILIES", "HELD_OUT", "HELD_OUT_SEEDS", "SIZE_RANGE_M", "TUNING", "TUNING_SEEDS", "Choice", "Family",
-           "Uniform", "build_mesh", "is_generated_name", "object_name", "parameters", "parse_name"]
+           "Uniform", "VARIANT_KEYS", "build_mesh", "is_generated_name", "object_name", "parameters", "parse_name"]
