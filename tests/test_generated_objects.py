@@ -79,6 +79,15 @@ def test_concave_families_are_concave(meshes):
         assert mesh.volume < 0.8 * mesh.convex_hull.volume, name
 
 
+def test_the_readme_table_is_the_families_table():
+    from pathlib import Path
+
+    from objects.generated.__main__ import family_table
+
+    readme = (Path(objects.__file__).parent / "README.md").read_text()
+    assert family_table() in readme, "regenerate the table with python -m objects.generated"
+
+
 # --- names ---------------------------------------------------------------------------------------
 
 def test_the_name_syntax_parses():
@@ -228,3 +237,50 @@ def test_a_mesh_made_too_small_by_a_wrong_unit_is_refused_naming_metres(tmp_path
 def test_units_are_checked():
     with pytest.raises(ValueError, match="unknown length unit 'furlong'; choose from m, cm, mm, in"):
         objects.units_scale("furlong")
+
+
+# --- the commands and the rig configuration ------------------------------------------------------
+
+def test_explore_refuses_a_millimetre_mesh_before_running_and_names_the_flag(tmp_path, capsys):
+    from scripts.explore import main
+
+    path = tmp_path / "part.stl"
+    trimesh.creation.box(extents=(120.0, 80.0, 60.0)).export(path)
+    with pytest.raises(SystemExit) as stop:
+        main(["--object", str(path), "--out", str(tmp_path / "run"), "--touches", "1"])
+    assert stop.value.code == 2
+    assert "pass --units mm" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
+    with pytest.raises(SystemExit) as stop:
+        main(["--object", "generated:mug", "--out", str(tmp_path / "run")])
+    assert stop.value.code == 2
+    assert "expected generated:FAMILY/SEED" in capsys.readouterr().err
+
+
+def test_a_sweep_takes_generated_names_and_labels_them_for_file_names():
+    from explorer.sweep import SweepConfig
+    from explorer.sweep.plan import plan_runs
+
+    config = SweepConfig(objects=("generated:mug/0", "box"), strategies=("random",), seeds=(0,))
+    assert config.objects == ("generated:mug/0", "box")
+    assert [run.name for run in plan_runs(config)] == ["generated-mug-0-random-normals-seed0",
+                                                        "box-random-normals-seed0"]
+    with pytest.raises(ValueError, match="unknown generated family 'cup'.*families: mug"):
+        SweepConfig(objects=("generated:cup/0",), strategies=("random",), seeds=(0,))
+
+
+def test_the_rig_configuration_gives_the_reference_mesh_unit(tmp_path):
+    from explorer.config import MESH_UNITS, config_from_dict
+    from explorer.rig import _reference
+
+    path = tmp_path / "mug.stl"
+    trimesh.creation.box(extents=(120.0, 80.0, 60.0)).export(path)
+    emulated = {"robot": {"backend": "emulated"}, "sensor": {"backend": "emulated"}}
+    config = config_from_dict({**emulated, "object": {"reference_mesh": str(path), "units": "mm"}})
+    np.testing.assert_allclose(_reference(config).extents, [0.12, 0.08, 0.06], atol=1e-9)
+    config = config_from_dict({**emulated, "object": {"reference_mesh": str(path)}})
+    with pytest.raises(ValueError, match=r"object\.reference_mesh: .*set object\.units = mm "):
+        _reference(config)
+    with pytest.raises(ValueError, match=r"object\.units: expected one of m, cm, mm, in"):
+        config_from_dict({"object": {"units": "feet"}})
+    assert set(objects.UNITS) == set(MESH_UNITS)
