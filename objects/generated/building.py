@@ -15,7 +15,7 @@ import numpy as np
 import trimesh
 from manifold3d import Manifold
 
-from objects.generated.families import FAMILIES, Family
+from objects.generated.families import FAMILIES
 
 PREFIX = "generated:"
 #: Largest side of every generated object's bounding box, metres.
@@ -118,8 +118,3 @@ def _problems(mesh: trimesh.Trimesh) -> list[str]:
         problems.append(f"largest side {largest * 1e3:.1f} mm outside "
                         f"{SIZE_RANGE_M[0] * 1e3:g}-{SIZE_RANGE_M[1] * 1e3:g} mm")
     return problems
-
-
-def family(name: str) -> Family:
-    """The :class:`Family` of a generated object name."""
-    return FAMILIES[parse_name(name)[0]]

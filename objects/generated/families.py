@@ -34,7 +34,6 @@ class Choice:
     options: tuple
 
 
-Range = Union[Uniform, Choice]
 Shape = Union[Manifold, trimesh.Trimesh]
 
 
