@@ -224,7 +224,7 @@ class RerunObserver(RunObserver):
     def _log_surface(self) -> None:
         """The GPIS mean surface coloured by the GPIS variance at its vertices."""
         self._surface_at = self._touches
-        if self.gpis is None or self.gpis.n_contacts < 4:
+        if self.gpis is None or self.gpis.n_contacts < 2:
             return
         try:
             mesh = self.gpis.mesh(resolution=self.surface_resolution)
@@ -381,3 +381,26 @@ def _thin(t_s: np.ndarray, step_s: float) -> np.ndarray:
             keep.append(i)
             last = t
     return np.array(keep, int)
+
+
+def add_rerun_argument(parser) -> None:
+    """``--rerun [FILE.rrd]`` on an argparse parser (no file: spawn a viewer)."""
+    parser.add_argument("--rerun", nargs="?", const="", metavar="FILE.rrd",
+                        help="log the run to Rerun: into FILE.rrd, or without a file to a spawned viewer "
+                             f"(needs the viz extra: {INSTALL_HINT})")
+
+
+def observer_from_argument(parser, value: str | None, application: str, surface_every: int = 10):
+    """The :class:`RerunObserver` a ``--rerun`` value asks for, None without the flag.
+
+    Without rerun-sdk: one line naming ``pip install -e .[viz]`` and exit status 2.
+    """
+    if value is None:
+        return None
+    path = Path(value) if value else None
+    if path is not None and path.suffix != ".rrd":
+        parser.exit(2, f"{parser.prog}: error: --rerun {value}: the file must end in .rrd\n")
+    try:
+        return RerunObserver(open_stream(path, application), surface_every=surface_every)
+    except RerunMissingError as error:
+        parser.exit(2, f"{parser.prog}: error: {error}\n")
