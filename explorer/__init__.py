@@ -10,7 +10,8 @@ Public API:
 * strategies: :class:`TouchStrategy` (subclass it), :class:`ExplorationState`,
   :func:`make_strategy`, :data:`STRATEGIES`, :class:`VarianceStrategy`, :class:`RandomStrategy`,
   :class:`UniformStrategy`;
-* sessions: :class:`RunRecorder`, :class:`RunObserver`, :func:`read_session`,
+* watching and sessions: :class:`RunObserver`, :class:`RerunObserver` with :func:`open_stream`
+  (Rerun, the ``viz`` extra), :class:`RunRecorder`, :func:`read_session`,
   :class:`SessionReplay` with :class:`ReplaySettings` (-> :class:`ReplayResult`);
 * :func:`reconstruction_errors` (what ``metrics.json`` reports), :func:`load_config`.
 
@@ -50,6 +51,8 @@ _LAZY = {
     "UniformStrategy": "explorer.strategies",
     "RunRecorder": "explorer.recording",
     "RunObserver": "explorer.observer",
+    "RerunObserver": "explorer.rerun_view",
+    "open_stream": "explorer.rerun_view",
     "read_session": "explorer.session",
     "SessionReplay": "explorer.replay",
     "ReplaySettings": "explorer.replay",
