@@ -45,6 +45,7 @@ OUTCOME_COLOURS = {"contact": (40, 180, 60), "miss": (220, 60, 50), "unreachable
                    "realign": (240, 170, 30), "no_normal": (160, 80, 200), "blocked": (90, 90, 90)}
 APPROACH_LENGTH_M = 0.05
 NORMAL_LENGTH_M = 0.01
+FLUSH_EVERY_S = 1.0
 
 
 class RerunMissingError(RuntimeError):
@@ -76,8 +77,9 @@ def open_stream(path: Path | None, application: str = "tactile-explore"):
 class RerunObserver(RunObserver):
     """Logs a run to a Rerun recording stream (see the module docstring for the entities).
 
-    Sensor readings and joint states are buffered and sent in columns at each touch (and at the
-    end), so logging costs a few calls per touch rather than per reading.
+    Sensor readings and joint states are buffered and sent in columns at each touch, every
+    ``FLUSH_EVERY_S`` of session time between touches (a live viewer keeps up with a slow
+    operator) and at the end, so logging costs a few calls per touch rather than per reading.
 
     Parameters
     ----------
@@ -148,6 +150,8 @@ class RerunObserver(RunObserver):
 
     def readings(self, readings: list) -> None:
         self._readings.extend(readings)
+        if self._readings and self._readings[-1].t_s - self._readings[0].t_s >= FLUSH_EVERY_S:
+            self._flush_streams()
 
     def joint_state(self, t_s: float, q: np.ndarray) -> None:
         if t_s - self._last_path_t >= self.pad_path_step_s:
