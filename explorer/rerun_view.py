@@ -302,7 +302,7 @@ def log_session(session_dir: Path, observer: RerunObserver, use_normals: bool | 
     """
     import objects
     import robots
-    from explorer.positioner import FixedStand, StandPose
+    from explorer.positioner import FixedStand
     from explorer.session import read_session
     from explorer.touch import ObjectPrior
     from reconstruction.gpis import GPIS
