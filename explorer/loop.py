@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from explorer.config import ExplorationConfig
 from explorer.contact import LOOP_SETTLING, ContactPipeline, NoContactMeasured, ObjectFrame, misaligned
 from explorer.evidence import SurfaceEvidence
 from explorer.planner import ApproachPlan, ApproachPlanner
@@ -87,7 +88,7 @@ class LoopConfig:
         cylinder: 0.2-0.6 mm and 1-6 deg off where the first was 2-5 mm and 15-25 deg off).
     """
 
-    touches: int = 50
+    touches: int = ExplorationConfig.touches
     variance_threshold: float | None = None
     approach_speed_mps: float = 0.01
     press_speed_mps: float = 0.005

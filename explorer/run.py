@@ -24,6 +24,7 @@ import numpy as np
 
 from explorer.coverage import reachable_fraction
 from explorer.evaluation import jsonable
+from explorer.config import ExplorationConfig
 from explorer.contact import LOOP_SETTLING
 from explorer.loop import ExplorationLoop, LoopConfig
 from explorer.outputs import add_errors, write_figures, write_mesh
@@ -41,17 +42,21 @@ from sensor.contact_detection import PressureDetectorConfig
 
 @dataclass
 class RunSettings:
-    """Everything that defines a run (saved in the session metadata)."""
+    """Everything that defines a run (saved in the session metadata).
+
+    The defaults shared with a configuration file's ``[exploration]`` are
+    :class:`explorer.config.ExplorationConfig`'s (one source for both).
+    """
 
     object: str = "banana"
     robot: str = "armar3"
-    strategy: str = "variance"
-    touches: int = 50
-    seed: int = 0
-    use_normals: bool = True
+    strategy: str = ExplorationConfig.strategy
+    touches: int = ExplorationConfig.touches
+    seed: int = ExplorationConfig.seed
+    use_normals: bool = ExplorationConfig.use_normals
     gui: bool = False
-    eval_every: int = 5
-    mesh_resolution: int = 96
+    eval_every: int = ExplorationConfig.eval_every
+    mesh_resolution: int = ExplorationConfig.mesh_resolution
     loop: LoopConfig = field(default_factory=LoopConfig)
     planner: PlannerConfig = field(default_factory=PlannerConfig)
 

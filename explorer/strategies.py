@@ -250,7 +250,7 @@ class VarianceStrategy(TouchStrategy):
         return touches or self._uniform.propose(state, count)
 
 
-STRATEGIES = {"uniform": UniformStrategy, "random": RandomStrategy, "variance": VarianceStrategy}
+STRATEGIES = {cls.name: cls for cls in (UniformStrategy, RandomStrategy, VarianceStrategy)}
 
 
 def make_strategy(name: str, seed: int = 0) -> TouchStrategy:

@@ -31,7 +31,7 @@ from sensor.contact_detection import PressureContactDetector, PressureDetectorCo
 from sensor.normal_estimation import ImuAlignment, OrientationNotSettledError, SettlingConfig, estimate_normal
 from sensor.pad_calibration import PadCalibration
 from sensor.reading import Reading
-from sensor.sim.quaternion import rotation_from_wxyz, wxyz_from_rotation
+from common.rotations import rotation_from_wxyz, wxyz_from_rotation
 
 FILE_FORMAT = "tactile-sensor-calibration"
 FILE_VERSION = 1

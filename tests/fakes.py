@@ -24,7 +24,7 @@ from sensor.interface import TactileSensor
 from sensor.pad_calibration import PAD_STIFFNESS_N_PER_M
 from sensor.reading import Reading
 from sensor.sim.pad_response import PadResponse
-from sensor.sim.quaternion import wxyz_from_rotation
+from common.rotations import wxyz_from_rotation
 
 TICK_S = 0.01
 ATMOSPHERE_PA = 101325.0

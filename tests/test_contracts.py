@@ -45,7 +45,7 @@ def sim_arm():
 
 @contextlib.contextmanager
 def serial_arm_on_emulators():
-    from robots.emulators.contact_world import VirtualSphere, emulated_rig
+    from explorer.contact_world import VirtualSphere, emulated_rig
 
     spec = robots.load("armar3")
     far_away = np.asarray(spec.workspace_center_m, float) + np.array([0.0, 0.0, 5.0])
@@ -121,7 +121,7 @@ def fake_sensor():
 
 @contextlib.contextmanager
 def simulated_sensor():
-    from sensor.pad_state import PadState
+    from common.pad_state import PadState
     from sensor.sim_sensor import SimulatedTactileSensor
 
     sensor = SimulatedTactileSensor(seed=0)
@@ -272,3 +272,9 @@ class TestTouchStrategyContract:
         points, variance = estimate
         assert points.ndim == 2 and points.shape[1] == 3 and variance.shape == (len(points),)
         assert len(points) and np.all(variance >= 0)
+
+
+def test_the_configuration_schema_offers_exactly_the_registered_strategies():
+    from explorer.config import STRATEGY_NAMES
+
+    assert sorted(STRATEGY_NAMES) == sorted(STRATEGIES)

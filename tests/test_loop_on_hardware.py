@@ -18,11 +18,11 @@ from explorer.rig import Rig
 from explorer.strategies import make_strategy
 from explorer.touch import ObjectPrior
 from reconstruction.gpis import GPIS
-from robots.emulators.contact_world import VirtualSphere, aligned_rotation, emulated_rig
+from explorer.contact_world import VirtualSphere, aligned_rotation, emulated_rig
 from robots.ik import PadIK
 from robots.kinematics import ArmKinematics
 from sensor.sim.pad_response import PadResponse
-from sensor.sim.quaternion import rotation_from_wxyz
+from common.rotations import rotation_from_wxyz
 
 RADIUS_M = 0.05
 AMBIENT_PA = 100_900.0
@@ -237,7 +237,7 @@ def test_the_calibrated_imu_mounting_is_applied_to_the_measured_normals(spec, ki
     from explorer.run import RunSettings, run_on_rig
     from sensor.normal_estimation import ImuAlignment
     from sensor.pad_calibration import PadCalibration
-    from sensor.sim.quaternion import wxyz_from_rotation
+    from common.rotations import wxyz_from_rotation
 
     mounting = wxyz_from_rotation(Rotation.from_euler("x", 12.0, degrees=True))
     centre = np.asarray(spec.workspace_center_m, dtype=float)

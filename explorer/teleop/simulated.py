@@ -18,7 +18,7 @@ from explorer.recording import RunRecorder
 from explorer.rig import Rig, object_prior
 from explorer.simulation import build_scene
 from explorer.teleop.devices import InputDevice
-from explorer.teleop.session import TeleopConfig, TeleopContact, TeleopSession
+from explorer.teleop.controller import TeleopConfig, TeleopContact, TeleopController
 from reconstruction.gpis import GPIS
 from sensor.contact_detection import PressureContactDetector, PressureDetectorConfig
 
@@ -103,7 +103,7 @@ def run_simulated_teleop(object_name: str, device_factory: Callable[[DeviceConte
         drawer = _DebugDrawer(pb, scene.world.client) if gui else None
         rig = Rig(scene.arm, scene.sensor, scene.kinematics, scene.stand, prior, scene.object_model.mesh,
                   metadata, scene.pad)
-        session = TeleopSession(rig, recorder, config, on_update=drawer.draw if drawer else None,
+        session = TeleopController(rig, recorder, config, on_update=drawer.draw if drawer else None,
                                 detector=PressureContactDetector(detector_config), settling=settling)
         error = None
         try:
@@ -117,7 +117,7 @@ def run_simulated_teleop(object_name: str, device_factory: Callable[[DeviceConte
     return TeleopResult(session.contacts, session.suggestion_m, mesh, out_dir, session.gpis)
 
 
-def _finish(session: TeleopSession, recorder: RunRecorder, out_dir: Path, error) -> object:
+def _finish(session: TeleopController, recorder: RunRecorder, out_dir: Path, error) -> object:
     mesh = None
     if session.gpis.n_contacts:
         mesh = session.snapshot()
@@ -147,7 +147,7 @@ class _DebugDrawer:
         self._client = client
         self._suggestion: list[int] = []
 
-    def draw(self, session: TeleopSession) -> None:
+    def draw(self, session: TeleopController) -> None:
         pb, client = self._pb, self._client
         latest = session.contacts[-1]
         p, n = session.to_world(latest.position_m[None], latest.normal[None])

@@ -101,7 +101,7 @@ class _Press:
     recorded: bool = False
 
 
-class TeleopSession:
+class TeleopController:
     """Runs a device against an arm and sensor, recording contacts and updating the GPIS.
 
     Parameters
@@ -112,12 +112,12 @@ class TeleopSession:
         and the pad calibration.
     recorder : Recorder
     config : TeleopConfig
-    on_update : callable (TeleopSession) -> None, optional
+    on_update : callable (TeleopController) -> None, optional
         Called after each recorded contact (the sim glue draws with it).
     """
 
     def __init__(self, rig: Rig, recorder: Recorder | None = None, config: TeleopConfig = TeleopConfig(),
-                 on_update: Callable[["TeleopSession"], None] | None = None,
+                 on_update: Callable[["TeleopController"], None] | None = None,
                  detector: PressureContactDetector | None = None, settling: SettlingConfig = LOOP_SETTLING):
         robot = rig.robot
         self.robot = robot
