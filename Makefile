@@ -20,6 +20,8 @@ main: install
 	$(VENV)/bin/tactile-explore --out $(OUT)/explore
 
 test: install
+	$(PY) -m ruff check .
+	$(VENV)/bin/lint-imports
 	$(PY) -m pytest
 
 bench: install

@@ -4,7 +4,7 @@ Public API:
 
 * runs: :func:`explore` (simulated run from :class:`RunSettings`), :func:`run_on_rig` with a
   :class:`Rig` (or :func:`open_rig` from a configuration file), :class:`RunResult`;
-* the loop and its parts: :class:`ExplorationLoop`, :class:`LoopConfig`, :class:`TouchRecord`,
+* the loop and its parts: :class:`ExplorationLoop`, :class:`LoopConfig`, :class:`TouchOutcome`,
   :class:`ApproachPlanner`, :class:`PlannerConfig`, :class:`Positioner`, :class:`FixedStand`,
   :class:`SimulatedStand`, :class:`StandPose`, :class:`ObjectPrior`, :class:`Touch`;
 * strategies: :class:`TouchStrategy` (subclass it), :class:`ExplorationState`,
@@ -27,13 +27,13 @@ _LAZY = {
     "run_on_rig": "explorer.run",
     "RunSettings": "explorer.run",
     "RunResult": "explorer.run",
-    "Rig": "explorer.run",
-    "object_prior": "explorer.run",
-    "open_rig": "explorer.rig",
+    "Rig": "explorer.rig",
+    "object_prior": "explorer.rig",
+    "open_rig": "explorer.backends",
     "load_config": "explorer.config",
     "ExplorationLoop": "explorer.loop",
     "LoopConfig": "explorer.loop",
-    "TouchRecord": "explorer.loop",
+    "TouchOutcome": "explorer.touch",
     "ApproachPlanner": "explorer.planner",
     "PlannerConfig": "explorer.planner",
     "Positioner": "explorer.positioner",

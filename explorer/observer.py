@@ -30,7 +30,7 @@ class RunObserver:
         """The arm's joint positions (radians) at ``t_s``."""
 
     def touch(self, record, t_s: float) -> None:
-        """A finished touch (:class:`explorer.loop.TouchRecord`, object frame), after the GPIS took it."""
+        """A finished touch (:class:`explorer.touch.TouchOutcome`, object frame), after the GPIS took it."""
 
     def suggestion(self, touch, t_s: float) -> None:
         """The strategy's best proposal for the next touch (:class:`explorer.touch.Touch`)."""

@@ -17,8 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from explorer.loop import Recorder, TouchRecord
+from explorer.loop import Recorder
 from explorer.observer import RunObserver
+from explorer.touch import TouchOutcome
 from explorer.session import SessionWriter
 
 CONTACTS_HEADER = "touch,x,y,z,nx,ny,nz,t_s,force_n,stand_yaw_rad,stand_tilt_rad\n"
@@ -70,7 +71,7 @@ class RunRecorder(Recorder):
         self._saw(t_s)
         self.observer.joint_state(t_s + self.time_offset_s, q)
 
-    def touch(self, record: TouchRecord) -> None:
+    def touch(self, record: TouchOutcome) -> None:
         kind = "touch" if record.kind == "contact" else ("miss" if record.kind == "miss" else record.kind)
         fields = dict(target_m=record.target_m.tolist(), approach_dir=record.approach_dir.tolist(),
                       index=record.index, result=record.kind, strategy=record.strategy,
@@ -132,7 +133,7 @@ class RunRecorder(Recorder):
         os.fsync(self._contacts.fileno())
 
 
-def contacts_csv_row(record: TouchRecord, t_s: float, force_n: float) -> str:
+def contacts_csv_row(record: TouchOutcome, t_s: float, force_n: float) -> str:
     """The ``contacts.csv`` line of a contact (``repr`` of a Python float round-trips exactly)."""
     values = [*record.position_m, *record.normal, t_s, force_n, record.stand_yaw_rad, record.stand_tilt_rad]
     return f"{record.index}," + ",".join(repr(float(v)) for v in values) + "\n"

@@ -75,7 +75,7 @@ def main(argv: list[str] | None = None) -> int:
             if value is not None:
                 parser.error(f"{flag} does not go with --config: set it in the configuration file")
         from explorer.config import load_config
-        from explorer.rig import open_rig, run_settings
+        from explorer.backends import open_rig, run_settings
         from explorer.run import run_on_rig
 
         try:

@@ -58,7 +58,7 @@ def main(argv: list[str] | None = None) -> None:
         result = replay(args.session, settings, args.out)
     except ValueError as err:
         parser.error(str(err))
-    keys = ("touches", "contacts", "misses", "set_aside", "no_normal", "same_press", "recorded_contacts",
+    keys = ("touches", "contacts", "misses", "realign", "no_normal", "same_press", "recorded_contacts",
             "position_rmse_mm", "normal_rmse_deg", "notes")
     print(json.dumps({k: result.metrics.get(k) for k in keys}, indent=2))
     print(f"outputs in {args.out}")

@@ -1,6 +1,6 @@
 """Evaluate the simulated arm + fingertip sensor: contact detection, normal accuracy, speed.
 
-Runs headless and seeded (see sensor.evaluation). Prints a table, or with --json one JSON object
+Runs headless and seeded (see explorer.sensor_evaluation). Prints a table, or with --json one JSON object
 with the keys detection, normal_error_deg, normal_error_mean_deg, normal_error_noiseless_mean_deg
 and speed_realtime_factor (plus supporting figures). Progress goes to stderr.
 
@@ -34,7 +34,7 @@ def _non_negative_float(text: str) -> float:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from sensor.evaluation.scene import SUPPORTED_OBJECTS
+    from explorer.sensor_evaluation.scene import SUPPORTED_OBJECTS
 
     parser = argparse.ArgumentParser(prog="tactile-sensor-eval", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -59,7 +59,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    from sensor.evaluation import EvaluationConfig, format_table, run_evaluation, to_json_dict, write_figures
+    from explorer.sensor_evaluation import EvaluationConfig, format_table, run_evaluation, to_json_dict, write_figures
 
     try:
         config = EvaluationConfig(presses=args.presses, seed=args.seed, objects=tuple(args.objects),

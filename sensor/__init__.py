@@ -19,7 +19,7 @@ import importlib
 
 _LAZY = {
     "Reading": "sensor.reading",
-    "PadState": "sensor.pad_state",
+    "PadState": "common.pad_state",
     "ContactEvent": "sensor.contact_detection",
     "OrientedContact": "sensor.oriented_contact",
     "TactileSensor": "sensor.interface",

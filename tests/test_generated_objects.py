@@ -271,7 +271,7 @@ def test_a_sweep_takes_generated_names_and_labels_them_for_file_names():
 
 def test_the_rig_configuration_gives_the_reference_mesh_unit(tmp_path):
     from explorer.config import MESH_UNITS, config_from_dict
-    from explorer.rig import _reference
+    from explorer.backends import _reference
 
     path = tmp_path / "mug.stl"
     trimesh.creation.box(extents=(120.0, 80.0, 60.0)).export(path)
