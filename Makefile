@@ -13,7 +13,7 @@ $(VENV)/.installed: setup.cfg pyproject.toml
 	$(PY) -m pip install --quiet --upgrade pip
 	# torch first and pinned: the CPU build (a range would pull a multi-GB CUDA build).
 	$(PY) -m pip install --quiet torch==2.13.0
-	$(PY) -m pip install --quiet -e '.[test,hardware,ray]'
+	$(PY) -m pip install --quiet -e '.[test,hardware,ray,viz]'
 	touch $@
 
 # A fresh folder per run (results/explore-YYYYMMDD-HHMMSS): a recorded run is never overwritten,
@@ -22,6 +22,8 @@ main: install
 	$(VENV)/bin/tactile-explore --out $(OUT)/explore-$$(date +%Y%m%d-%H%M%S)
 
 test: install
+	$(PY) -m ruff check .
+	$(VENV)/bin/lint-imports
 	$(PY) -m pytest
 
 bench: install

@@ -20,39 +20,40 @@ and roughly where, and the exploration settings, from a TOML or JSON file.
     centre_m = [0.0, 0.55, 1.0]         # rough centre, robot base frame (the object frame's origin)
     half_extent_m = [0.06, 0.06, 0.08]  # rough half size along the base axes (over-estimate)
     reference_mesh = "mug.stl"          # optional true surface, object frame, for error metrics
+    units = "m"                         # length unit of the mesh files: "m" (default), "cm", "mm", "in"
 
     [exploration]
     touches = 50
     strategy = "variance"
 
-:func:`load_config` reads and checks a file (every error names the key), :func:`open_backends`
-opens both devices as a context manager. The simulated backends (``backend = "sim"``) are built
-by a callable the explorer passes in (:func:`open_sim_backends`), so this module needs neither
-PyBullet nor the hardware packages until a device is opened. ``robot.backend = "emulated"`` with
+:func:`load_config` reads and checks a file (every error names the key); this module is the schema
+only. :mod:`explorer.backends` opens what a configuration describes
+(:func:`explorer.backends.open_backends`, :func:`explorer.backends.open_rig`). ``robot.backend = "emulated"`` with
 ``sensor.backend = "emulated"`` is a dry run without hardware: the serial arm protocol and the
 chip drivers on emulators, pressed against a virtual sphere (``[emulation]``).
 """
 from __future__ import annotations
 
-import contextlib
 import difflib
 import json
 import math
 import sys
-import time
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any, Callable, ContextManager, Iterator
+from typing import Any
 
 ROBOT_BACKENDS = ("sim", "serial", "emulated")
+#: The strategies' names (``explorer.strategies.STRATEGIES`` is keyed by them; a test ties the two).
+STRATEGY_NAMES = ("variance", "random", "uniform")
 SENSOR_BACKENDS = ("sim", "i2c", "uart", "mcu", "emulated")
 BMP280_ADDRESSES = (0x76, 0x77)
 BNO055_ADDRESSES = (0x28, 0x29)
 BNO055_UART_BAUD = 115200
 MCU_DEFAULT_BAUD = 230400
+#: Length units a mesh file may be in (the keys of ``objects.UNITS``; not imported to keep this light).
+MESH_UNITS = ("m", "cm", "mm", "in")
 FUSION_MODES = ("IMU", "COMPASS", "M4G", "NDOF_FMC_OFF", "NDOF")
 
-SimBuilder = Callable[["BackendConfig"], ContextManager[tuple[Any, Any]]]
 """Builds the simulated robot and sensor for a config; a context manager yielding ``(robot, sensor)``."""
 
 
@@ -232,13 +233,18 @@ class ObjectConfig:
         Required on hardware; in simulation it comes from the object's mesh, in emulation from
         the sphere.
     reference_mesh : Path or None
-        The true surface, object frame, metres (any format trimesh reads), for error metrics.
+        The true surface, object frame (OBJ, STL or PLY, checked by :func:`objects.load`), for
+        error metrics.
+    units : str
+        Length unit of ``reference_mesh`` and of a mesh file given as ``name``: "m" (default),
+        "cm", "mm" or "in" (the ``--units`` flag of the commands).
     """
 
     name: str = "banana"
     centre_m: tuple[float, float, float] | None = None
     half_extent_m: tuple[float, float, float] | None = None
     reference_mesh: Path | None = None
+    units: str = "m"
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -250,6 +256,8 @@ class ObjectConfig:
             if not isinstance(self.reference_mesh, (str, Path)) or not str(self.reference_mesh):
                 raise _fail("object.reference_mesh", f"expected a mesh file path, got {self.reference_mesh!r}")
             set_(self, "reference_mesh", Path(self.reference_mesh))
+        if self.units not in MESH_UNITS:
+            raise _fail("object.units", f"expected one of {', '.join(MESH_UNITS)}, got {self.units!r}")
 
 
 @dataclass(frozen=True)
@@ -279,7 +287,7 @@ class ExplorationConfig:
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         set_(self, "touches", _integer("exploration.touches", self.touches, 1))
-        _choice("exploration.strategy", self.strategy, ("variance", "random", "uniform"))
+        _choice("exploration.strategy", self.strategy, STRATEGY_NAMES)
         set_(self, "seed", _integer("exploration.seed", self.seed, 0))
         if not isinstance(self.use_normals, bool):
             raise _fail("exploration.use_normals", f"expected true or false, got {self.use_normals!r}")
@@ -423,160 +431,3 @@ def _parse_toml(text: str, path: Path) -> dict:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise ValueError(f"{path} is not valid TOML: {error}") from None
-
-
-def load_calibration(config: SensorConfig):
-    """The :class:`sensor.calibration.SensorCalibration` the config refers to, or None."""
-    if config.calibration is None:
-        return None
-    from sensor.calibration import SensorCalibration
-    return SensorCalibration.load(config.calibration)
-
-
-# ---- opening devices -----------------------------------------------------------------------
-
-@contextlib.contextmanager
-def open_robot(config: RobotConfig, *, clock: Callable[[], float] = time.monotonic,
-               sleep: Callable[[float], None] = time.sleep) -> Iterator[Any]:
-    """Open the hardware arm of ``config`` (``backend = "serial"``); yields a :class:`robots.interface.Robot`."""
-    if config.backend != "serial":
-        raise ValueError(f"robot.backend = {config.backend!r} is not a hardware backend: use open_backends() "
-                         f"with a sim_builder for the simulation")
-    from robots.hardware import SerialArm
-    arm = SerialArm(config.port, config.spec, baudrate=config.baudrate, reply_timeout_s=config.reply_timeout_s,
-                    attempts=config.attempts, control_rate_hz=config.control_rate_hz, clock=clock, sleep=sleep)
-    with arm:
-        yield arm
-
-
-@contextlib.contextmanager
-def open_sensor(config: SensorConfig, *, clock: Callable[[], float] = time.monotonic,
-                sleep: Callable[[float], None] = time.sleep,
-                open_i2c_bus: Callable[[int], Any] | None = None) -> Iterator[Any]:
-    """Open the hardware (or emulated) sensor of ``config``; yields an open :class:`sensor.interface.TactileSensor`.
-
-    ``open_i2c_bus(bus_number)`` returns an smbus2-like bus (default ``smbus2.SMBus``); the bus and
-    serial ports opened here are closed on exit.
-    """
-    if config.backend == "sim":
-        raise ValueError("sensor.backend = 'sim' is not a hardware backend: use open_backends() with a sim_builder")
-    with contextlib.ExitStack() as stack:
-        sensor = _build_sensor(config, stack, clock, sleep, open_i2c_bus)
-        stack.enter_context(sensor)
-        yield sensor
-
-
-def _build_sensor(config: SensorConfig, stack: contextlib.ExitStack, clock, sleep, open_i2c_bus):
-    from sensor.drivers import (BMP280, BNO055I2C, BNO055UART, CalibrationProfile, HardwareTactileSensor,
-                                MicrocontrollerStream, OperationMode)
-    if config.backend == "emulated":
-        from sensor.emulated_fingertip import PressScript, emulated_fingertip
-        return emulated_fingertip(PressScript.regular(20), clock=clock, sleep=sleep)
-    calibration = load_calibration(config)
-    options = dict(read_timeout_s=config.read_timeout_s, sleep=sleep)
-    if config.backend == "mcu":
-        port = stack.enter_context(contextlib.closing(_open_serial(config.port, config.baudrate)))
-        return HardwareTactileSensor.from_stream(MicrocontrollerStream(port, clock=clock), **options)
-    bus = stack.enter_context(contextlib.closing(_open_i2c(config.bus, open_i2c_bus)))
-    barometer = BMP280(bus, config.bmp280_address, sleep=sleep, clock=clock)
-    if config.backend == "i2c":
-        imu = BNO055I2C(bus, config.bno055_address, sleep=sleep, clock=clock)
-    else:
-        port = stack.enter_context(contextlib.closing(_open_serial(config.port, config.baudrate)))
-        imu = BNO055UART(port, sleep=sleep, clock=clock)
-    if calibration is not None and calibration.bno055_profile_hex:
-        imu.write_calibration(CalibrationProfile.from_hex(calibration.bno055_profile_hex))
-    return HardwareTactileSensor.from_chips(barometer, imu, imu_mode=OperationMode[config.imu_mode], clock=clock,
-                                            **options)
-
-
-def _open_i2c(bus_number: int, open_i2c_bus: Callable[[int], Any] | None):
-    from sensor.drivers import DeviceDisconnectedError
-    if open_i2c_bus is None:
-        try:
-            from smbus2 import SMBus
-        except ImportError as error:
-            raise ImportError("the I2C sensor backends need smbus2: pip install smbus2 (or the project's "
-                              "[hardware] extra)") from error
-        open_i2c_bus = SMBus
-    try:
-        return open_i2c_bus(bus_number)
-    except OSError as error:
-        raise DeviceDisconnectedError(f"I2C bus {bus_number}", f"cannot open /dev/i2c-{bus_number}: {error} "
-                                                               f"(I2C enabled? user in the i2c group?)") from error
-
-
-def _open_serial(port: str, baudrate: int):
-    from sensor.drivers import DeviceDisconnectedError
-    try:
-        import serial
-    except ImportError as error:
-        raise ImportError("the serial sensor backends need pyserial: pip install pyserial (or the project's "
-                          "[hardware] extra)") from error
-    if "emu://" in port:
-        from sensor.emulators import register_serial_url_handlers
-        register_serial_url_handlers()
-    try:
-        return serial.serial_for_url(port, baudrate=baudrate, timeout=0.02)
-    except (OSError, ValueError) as error:
-        raise DeviceDisconnectedError(f"serial port {port}", f"cannot open: {error}") from error
-
-
-@contextlib.contextmanager
-def open_sim_backends(config: BackendConfig, sim_builder: SimBuilder | None) -> Iterator[tuple[Any, Any]]:
-    """The simulated robot and sensor, built by ``sim_builder(config)`` (the explorer provides it)."""
-    if sim_builder is None:
-        raise NotImplementedError(
-            "backend = 'sim' is built by the explorer's simulation (explorer.simulation.build_scene): pass "
-            "open_backends(config, sim_builder=...), a callable taking the BackendConfig and returning a context "
-            "manager that yields (robot, sensor)")
-    with sim_builder(config) as (robot, sensor):
-        yield robot, sensor
-
-
-@contextlib.contextmanager
-def open_backends(config: BackendConfig, *, sim_builder: SimBuilder | None = None,
-                  clock: Callable[[], float] = time.monotonic, sleep: Callable[[float], None] = time.sleep,
-                  open_i2c_bus: Callable[[int], Any] | None = None) -> Iterator[tuple[Any, Any]]:
-    """Open the robot and the sensor of ``config``; yields ``(robot, sensor)`` and closes both on exit.
-
-    The robot is opened first and closed last. Simulation and hardware do not mix: ``"sim"`` must
-    be chosen for both or neither. ``robot.backend = "emulated"`` runs on emulators in virtual
-    time (``clock``, ``sleep`` and ``open_i2c_bus`` are not used).
-    """
-    if config.robot.backend == "emulated":
-        with open_emulated_backends(config) as pair:
-            yield pair
-        return
-    sim = (config.robot.backend == "sim", config.sensor.backend == "sim")
-    if any(sim):
-        if not all(sim):
-            raise ValueError(f"robot.backend = {config.robot.backend!r} and sensor.backend = "
-                             f"{config.sensor.backend!r}: the simulated robot and sensor only exist together; "
-                             f"set both to 'sim' or neither")
-        with open_sim_backends(config, sim_builder) as pair:
-            yield pair
-        return
-    with contextlib.ExitStack() as stack:
-        robot = stack.enter_context(open_robot(config.robot, clock=clock, sleep=sleep))
-        sensor = stack.enter_context(open_sensor(config.sensor, clock=clock, sleep=sleep,
-                                                 open_i2c_bus=open_i2c_bus))
-        yield robot, sensor
-
-
-@contextlib.contextmanager
-def open_emulated_backends(config: BackendConfig) -> Iterator[tuple[Any, Any]]:
-    """A :class:`robots.hardware.SerialArm` and a :class:`sensor.drivers.HardwareTactileSensor` on
-    emulators, coupled through a virtual sphere (``[emulation]``) at ``object.centre_m`` plus
-    ``emulation.sphere_offset_m``; both run on one virtual clock. Yields ``(robot, sensor)``."""
-    import numpy as np
-
-    import robots
-    from robots.emulators.contact_world import VirtualSphere, emulated_rig
-
-    spec = robots.load(config.robot.spec)
-    centre = np.asarray(config.object.centre_m or spec.workspace_center_m, float)
-    sphere = VirtualSphere(centre + np.asarray(config.emulation.sphere_offset_m), config.emulation.sphere_radius_m)
-    rig = emulated_rig(spec, sphere, noise_pa=config.emulation.noise_pa, seed=config.emulation.seed)
-    with rig.arm, rig.sensor:
-        yield rig.arm, rig.sensor

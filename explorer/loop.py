@@ -13,10 +13,13 @@ Per touch:
 3. a guarded move follows the approach line until the pressure detector confirms a contact;
 4. the arm keeps pressing (at most ``press_depth_m`` further) until the force estimate reaches
    ``press_force_n`` and the IMU orientation has settled, so the spring has aligned the pad;
-5. the oriented contact comes from forward kinematics of the encoder readings through the spring
-   pivot and the IMU orientation; it is carried into the object frame with the stand angles,
-   recorded, and added to the GPIS (one incremental update);
+5. the contact is measured by the one contact pipeline (:mod:`explorer.contact`: forward
+   kinematics of the encoder readings through the spring pivot, the IMU orientation, the rig's pad
+   calibration, the stand angles), recorded, and added to the GPIS (one incremental update);
 6. a miss (no contact within the path) adds free-space evidence along the swept line.
+
+The loop is built from a :class:`explorer.rig.Rig` (robot, sensor, kinematics, positioner, prior,
+pad calibration) and a :class:`LoopConfig`.
 """
 from __future__ import annotations
 
@@ -25,25 +28,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from explorer.config import ExplorationConfig
+from explorer.contact import LOOP_SETTLING, ContactPipeline, NoContactMeasured, ObjectFrame, misaligned
+from explorer.evidence import SurfaceEvidence
 from explorer.planner import ApproachPlan, ApproachPlanner
-from explorer.positioner import Positioner
+from explorer.rig import Rig
 from explorer.strategies import ExplorationState, TouchStrategy
-from explorer.touch import ObjectPrior, Touch
+from explorer.touch import Touch, TouchOutcome
 from reconstruction.gpis import GPIS
 from robots.interface import MoveNotReachedError
 from sensor.contact_detection import PressureContactDetector
-from sensor.normal_estimation import (ImuAlignment, OrientationNotSettledError, SettlingConfig,
-                                       estimate_normal, oriented_contact)
-from sensor.oriented_contact import OrientedContact
-from sensor.sim.pad_response import PadResponse
+from sensor.normal_estimation import SettlingConfig
 from sensor.reading import Reading
-
-
-#: Pressure-to-force calibration of the pad (the simulated pad's; hardware calibration replaces it).
-PAD = PadResponse()
-
-#: The loop's settling test: the orientation within 0.5 deg over 0.15 s (IMU noise is ~0.1 deg).
-LOOP_SETTLING = dict(settle_window_s=0.15, max_deviation_rad=float(np.radians(0.5)))
 
 
 @dataclass(frozen=True)
@@ -83,9 +79,6 @@ class LoopConfig:
         Standard deviation of those values.
     max_unreachable_in_a_row : int
         Give up after this many steps without any reachable touch.
-    pad_compliance_m_per_n : float
-        Pad compression per newton (calibration of the sensor's pad): the pad face is pressed
-        ``force x compliance`` into the surface, so the contact point is moved back out by that.
     realign_angle_rad : float
         When the measured normal differs from the approach by more than this, the pad may have
         stuck part way (friction holds its leading edge on surfaces tilted 35 deg or more from the
@@ -95,7 +88,7 @@ class LoopConfig:
         cylinder: 0.2-0.6 mm and 1-6 deg off where the first was 2-5 mm and 15-25 deg off).
     """
 
-    touches: int = 50
+    touches: int = ExplorationConfig.touches
     variance_threshold: float | None = None
     approach_speed_mps: float = 0.01
     press_speed_mps: float = 0.005
@@ -108,27 +101,7 @@ class LoopConfig:
     free_space_value: float = -0.009
     free_space_noise: float = 0.005
     max_unreachable_in_a_row: int = 5
-    pad_compliance_m_per_n: float = 1.0 / 3.0e3
     realign_angle_rad: float = np.radians(15.0)
-
-
-@dataclass
-class TouchRecord:
-    """What happened on one touch (object frame unless stated)."""
-
-    index: int
-    kind: str  # contact | realign | miss | unreachable | blocked | no_normal
-    target_m: np.ndarray
-    approach_dir: np.ndarray
-    stand_yaw_rad: float = 0.0
-    stand_tilt_rad: float = 0.0
-    contact: OrientedContact | None = None  # world frame, as measured
-    position_m: np.ndarray | None = None  # object frame
-    normal: np.ndarray | None = None  # object frame
-    t_s: float = 0.0
-    press_t_s: tuple[float, float] | None = None  # detector reset .. end of the hold (replay)
-    strategy: str = ""  # the strategy that proposed the touch ("realign" for a repeat)
-    free_space_m: np.ndarray | None = None  # (k, 3) points a missed approach swept, object frame
 
 
 @dataclass
@@ -149,7 +122,7 @@ class Recorder:
 
     def readings(self, readings: list[Reading]) -> None: ...
     def joint_state(self, t_s: float, q: np.ndarray) -> None: ...
-    def touch(self, record: TouchRecord) -> None: ...
+    def touch(self, record: TouchOutcome) -> None: ...
     def event(self, kind: str, t_s: float, **fields) -> None: ...
 
 
@@ -158,56 +131,48 @@ class ExplorationLoop:
 
     Parameters
     ----------
-    robot : robots.interface.Robot
-    sensor : sensor.interface.TactileSensor (opened by the caller)
-    kinematics : robots.kinematics.ArmKinematics
+    rig : explorer.rig.Rig
+        Robot, sensor (opened by the caller), kinematics, positioner, prior and pad calibration.
     planner : ApproachPlanner
-    positioner : Positioner
     strategy : TouchStrategy
-    prior : ObjectPrior
     gpis : GPIS
         Empty; filled in the object frame.
     config : LoopConfig
     recorder : Recorder
     detector : PressureContactDetector
     settling : SettlingConfig
-    alignment : sensor.normal_estimation.ImuAlignment, optional
-        How the IMU's quaternion maps to the pad's orientation (hardware calibration; identity
-        in simulation).
+        When the pad's orientation counts as settled (default :data:`explorer.contact.LOOP_SETTLING`).
     """
 
-    def __init__(self, robot, sensor, kinematics, planner: ApproachPlanner, positioner: Positioner,
-                 strategy: TouchStrategy, prior: ObjectPrior, gpis: GPIS,
+    def __init__(self, rig: Rig, planner: ApproachPlanner, strategy: TouchStrategy, gpis: GPIS,
                  config: LoopConfig = LoopConfig(), recorder: Recorder | None = None,
-                 detector: PressureContactDetector | None = None,
-                 settling: SettlingConfig | None = None, alignment: ImuAlignment | None = None):
-        self.robot = robot
-        self.sensor = sensor
-        self.kin = kinematics
+                 detector: PressureContactDetector | None = None, settling: SettlingConfig = LOOP_SETTLING):
+        self.robot = rig.robot
+        self.sensor = rig.sensor
+        self.kin = rig.kinematics
+        self.positioner = rig.positioner
+        self.prior = rig.prior
         self.planner = planner
-        self.positioner = positioner
         self.strategy = strategy
-        self.prior = prior
         self.gpis = gpis
         self.config = config
         self.recorder = recorder or Recorder()
         self.detector = detector or PressureContactDetector()
-        self.settling = settling or SettlingConfig(**LOOP_SETTLING)
-        self.alignment = alignment
-        self.state = ExplorationState(prior)
-        self.records: list[TouchRecord] = []
+        self.contact_pipeline = ContactPipeline(rig.kinematics, rig.pad, settling)
+        self.evidence = SurfaceEvidence(gpis, config.free_space_value, config.free_space_noise)
+        self.state = ExplorationState(rig.prior)
+        self.records: list[TouchOutcome] = []
         self.times = PhaseTimes()
         self._contact_readings: list[Reading] = []
-        self._pending_free_space: list[np.ndarray] = []
         self._baseline_pa: float | None = None
         self._follow_up: Touch | None = None
 
     # ------------------------------------------------------------------ public
     @property
-    def contacts(self) -> list[TouchRecord]:
+    def contacts(self) -> list[TouchOutcome]:
         return [r for r in self.records if r.kind == "contact"]
 
-    def run(self, progress=None) -> list[TouchRecord]:
+    def run(self, progress=None) -> list[TouchOutcome]:
         """Explore until the budget is spent; returns the touch records."""
         unreachable_in_a_row = 0
         while self.state.touches < self.config.touches:
@@ -223,7 +188,7 @@ class ExplorationLoop:
                 break
         return self.records
 
-    def step(self) -> TouchRecord:
+    def step(self) -> TouchOutcome:
         """One touch: plan, move, press, record, update."""
         self.state.gpis = self.gpis if self.gpis.n_contacts else None
         plan, first_proposals = None, None
@@ -249,19 +214,19 @@ class ExplorationLoop:
         self.state.touches += 1
         if plan is None:
             touch = proposals[0] if proposals else None
-            record = TouchRecord(index, "unreachable",
+            record = TouchOutcome(index, "unreachable",
                                  np.zeros(3) if touch is None else touch.target_m,
                                  np.zeros(3) if touch is None else touch.approach_dir,
                                  t_s=self.robot.time_s(), strategy="" if touch is None else touch.strategy)
             return self._finish(record)
-        if hasattr(self.strategy, "accepted") and plan.touch.strategy != "realign":
+        if plan.touch.strategy != "realign":
             self.strategy.accepted(plan.touch)
         self.state.tried_m.append(plan.touch.target_m)
         record = self._execute(plan, index)
         record.strategy = plan.touch.strategy
         return self._finish(record)
 
-    def restore(self, records: list[TouchRecord]) -> None:
+    def restore(self, records: list[TouchOutcome]) -> None:
         """Continue a run from the touches it recorded before it stopped (see ``explorer.resume``).
 
         Replays their effect in the original order: the touch count, the tried and unreachable
@@ -284,19 +249,19 @@ class ExplorationLoop:
             self.state.tried_m.append(record.target_m)
             if record.kind == "blocked":
                 self.state.unreachable_m.append(record.target_m)
-            if hasattr(self.strategy, "accepted") and record.strategy and record.strategy != "realign":
+            if record.strategy and record.strategy != "realign":
                 self.strategy.accepted(Touch(record.target_m, record.approach_dir, strategy=record.strategy))
             if record.kind == "contact":
-                self._update_gpis(record.position_m, record.normal)
+                self.evidence.add_contact(record.position_m, record.normal)
             elif record.kind == "miss" and record.free_space_m is not None:
-                self._add_free_space(record.free_space_m)
+                self.evidence.add_free_space(record.free_space_m)
         if records and records[-1].kind == "realign":
             last = records[-1]
             self._follow_up = Touch(last.position_m, -last.normal, strategy="realign",
                                     depth_m=self.planner.config.depth_m)
 
     # ------------------------------------------------------------------ one touch
-    def _execute(self, plan: ApproachPlan, index: int) -> TouchRecord:
+    def _execute(self, plan: ApproachPlan, index: int) -> TouchOutcome:
         cfg = self.config
         t0 = time.perf_counter()
         if plan.stand != self.positioner.pose():
@@ -305,7 +270,7 @@ class ExplorationLoop:
         if not self._transfer(plan.standoff_q):
             self.state.unreachable_m.append(plan.touch.target_m)
             self.times.simulation_s += time.perf_counter() - t0
-            return TouchRecord(index, "blocked", plan.touch.target_m, plan.touch.approach_dir,
+            return TouchOutcome(index, "blocked", plan.touch.target_m, plan.touch.approach_dir,
                                plan.stand.yaw_rad, plan.stand.tilt_rad, t_s=self.robot.time_s())
         self._poll()
         self.detector.reset()
@@ -314,7 +279,7 @@ class ExplorationLoop:
         speed = self._joint_speed(plan)
         approach = self.robot.guarded_move(plan.path_q[1:], stop=self._contact_started,
                                            speed_rad_s=speed)
-        record = TouchRecord(index, "miss", plan.touch.target_m, plan.touch.approach_dir,
+        record = TouchOutcome(index, "miss", plan.touch.target_m, plan.touch.approach_dir,
                              plan.stand.yaw_rad, plan.stand.tilt_rad, t_s=self.robot.time_s())
         if approach.stopped:
             start_pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
@@ -327,14 +292,15 @@ class ExplorationLoop:
         self._retract(plan)
         self._poll()
         self.times.simulation_s += time.perf_counter() - t0
-        if record.kind == "contact" and plan.touch.strategy != "realign" and self._misaligned(record):
+        if (record.kind == "contact" and plan.touch.strategy != "realign"
+                and misaligned(record.normal, record.approach_dir, cfg.realign_angle_rad)):
             record.kind = "realign"
             self._follow_up = Touch(record.position_m, -record.normal, strategy="realign",
                                     depth_m=self.planner.config.depth_m)
         if record.kind == "contact":
             self._update_gpis(record.position_m, record.normal)
         elif record.kind == "miss":
-            record.free_space_m = self._free_space_points(plan)
+            record.free_space_m = self.evidence.inside_bounds(self.positioner.to_object(plan.path_world_m))
             self._add_free_space(record.free_space_m)
         return record
 
@@ -366,30 +332,25 @@ class ExplorationLoop:
             self.robot.guarded_move(plan.path_q[::-1], stop=lambda: False, speed_rad_s=0.2 * speed)
             self.robot.move_joints(self.planner.rest_q, speed)
 
-    def _contact_record(self, record: TouchRecord) -> TouchRecord:
-        q = self.robot.joint_positions()
-        pivot = self.kin.forward_kinematics(q, link=self.kin.spec.pivot_link).position_m
+    def _contact_record(self, record: TouchOutcome) -> TouchOutcome:
+        record.baseline_pa = self._baseline_pa
         try:
-            contact = oriented_contact(self._contact_readings, pivot, self.kin.pivot_to_pad_in_body,
-                                       self._baseline_pa, settling=self.settling, alignment=self.alignment)
-        except (OrientationNotSettledError, ValueError) as err:  # ValueError: pressure saturated
+            measured = self.contact_pipeline.measure(self._contact_readings, self._baseline_pa,
+                                                      self.robot.joint_positions(),
+                                                      ObjectFrame.of_positioner(self.positioner), record.approach_dir)
+        except NoContactMeasured as err:
             self.recorder.event("no_normal", self.robot.time_s(), message=str(err))
             record.kind = "no_normal"
             return record
-        surface = contact.position_m + contact.normal * contact.force_n * self.config.pad_compliance_m_per_n
-        p_obj, n_obj = self.positioner.to_object(surface[None], contact.normal[None])
         record.kind = "contact"
-        record.contact = contact
-        record.position_m = p_obj[0]
-        record.normal = n_obj[0] / np.linalg.norm(n_obj[0])
-        record.t_s = contact.t_s
+        record.contact = measured.world
+        record.position_m = measured.position_m
+        record.normal = measured.normal
+        record.quality = measured.quality
+        record.t_s = measured.world.t_s
         return record
 
-    def _misaligned(self, record: TouchRecord) -> bool:
-        """The measured normal is far from the approach: the pad may not have aligned."""
-        return float(np.dot(record.normal, -record.approach_dir)) < np.cos(self.config.realign_angle_rad)
-
-    def _finish(self, record: TouchRecord) -> TouchRecord:
+    def _finish(self, record: TouchOutcome) -> TouchOutcome:
         self.records.append(record)
         self.recorder.touch(record)
         return record
@@ -428,52 +389,24 @@ class ExplorationLoop:
         rise = self._contact_readings[-1].pressure_pa - (self._baseline_pa or 0.0)
         pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
         travelled = float(np.linalg.norm(pad - start_pad_m))
-        return travelled >= self.config.press_depth_m or PAD.force_estimate_n(rise) >= self.config.press_force_n
+        force_n = self.contact_pipeline.force_estimate_n(rise)
+        return travelled >= self.config.press_depth_m or force_n >= self.config.press_force_n
 
     def _settled_now(self) -> bool:
         """The orientation over the latest settling window is steady."""
         self._collect()
-        window = self.settling.settle_window_s
-        if not self._contact_readings or self._contact_readings[-1].t_s - self._contact_readings[0].t_s < window:
-            return False
-        recent = [r for r in self._contact_readings if r.t_s >= self._contact_readings[-1].t_s - window]
-        try:
-            estimate_normal(recent, self._baseline_pa, settling=self.settling)
-        except (OrientationNotSettledError, ValueError):
-            return False
-        return True
+        return self.contact_pipeline.settled(self._contact_readings, self._baseline_pa)
 
     def _update_gpis(self, point: np.ndarray, normal: np.ndarray) -> None:
         t0 = time.perf_counter()
-        first = self.gpis.n_contacts == 0
-        self.gpis.add(point, normal)
-        if first and self._pending_free_space:
-            self._add_values(np.vstack(self._pending_free_space))
-            self._pending_free_space = []
+        self.evidence.add_contact(point, normal)
         self.times.gpis_s += time.perf_counter() - t0
-
-    def _free_space_points(self, plan: ApproachPlan) -> np.ndarray:
-        """(k, 3) points of the swept approach line inside the GPIS bounds, object frame."""
-        points = self.positioner.to_object(plan.path_world_m)
-        lo, hi = self.gpis.bounds if self.gpis.bounds is not None else (None, None)
-        if lo is not None:
-            points = points[np.all((points > lo) & (points < hi), axis=1)]
-        return points
 
     def _add_free_space(self, points: np.ndarray) -> None:
         """The swept points (object frame) are outside the object."""
-        if not len(points):
-            return
-        if self.gpis.n_contacts == 0:
-            self._pending_free_space.append(points)
-            return
         t0 = time.perf_counter()
-        self._add_values(points)
+        self.evidence.add_free_space(points)
         self.times.gpis_s += time.perf_counter() - t0
-
-    def _add_values(self, points: np.ndarray) -> None:
-        values = np.full(len(points), self.config.free_space_value)
-        self.gpis.add_values(points, values, noise=self.config.free_space_noise)
 
     def _joint_speed(self, plan: ApproachPlan) -> float:
         """Joint speed that moves the pad at ``approach_speed_mps`` along the approach line."""
@@ -483,7 +416,7 @@ class ExplorationLoop:
 
     def _variance_converged(self) -> bool:
         threshold = self.config.variance_threshold
-        if threshold is None or self.gpis.n_contacts < 4 or not hasattr(self.strategy, "surface_variance"):
+        if threshold is None or self.gpis.n_contacts < 4:
             return False
-        _, variance = self.strategy.surface_variance(ExplorationState(self.prior, self.gpis))
-        return bool(variance.max() < threshold)
+        estimate = self.strategy.surface_variance(ExplorationState(self.prior, self.gpis))
+        return estimate is not None and bool(estimate[1].max() < threshold)

@@ -1,4 +1,5 @@
-"""Output files written whole or not at all.
+"""The outputs a finished (or stopped) run and a replay both write: mesh, error metrics, figures;
+and how every output file is written: whole or not at all.
 
 Each file is written to a hidden temporary file next to it, flushed to disk and renamed over the
 target (``os.replace``), so a reader (or a run resumed after a crash or a full disk) finds either
@@ -11,6 +12,10 @@ import json
 import os
 from pathlib import Path
 from typing import Any
+
+import numpy as np
+
+from explorer.evaluation import reconstruction_errors
 
 
 def write_bytes(path: Path, data: bytes) -> Path:
@@ -43,3 +48,48 @@ def export_mesh(mesh, path: Path) -> Path:
     """Write a trimesh mesh to ``path`` (format from the suffix, e.g. ``.ply``) atomically."""
     path = Path(path)
     return write_bytes(path, mesh.export(file_type=path.suffix.lstrip(".").lower()))
+
+
+def write_mesh(gpis, resolution: int, out_dir: Path, metrics: dict):
+    """Mesh the GPIS mean surface into ``out_dir/reconstruction.ply``; returns the mesh or None.
+
+    A field with no zero level set (or no contacts) gives None, with ``reconstruction_error`` in
+    ``metrics`` saying why when meshing failed.
+    """
+    if not gpis.n_contacts:
+        return None
+    try:
+        mesh = gpis.mesh(resolution=resolution)
+        export_mesh(mesh, Path(out_dir) / "reconstruction.ply")
+    except ValueError as exc:
+        metrics["reconstruction_error"] = str(exc)
+        return None
+    return mesh
+
+
+def add_errors(metrics: dict, mesh, truth, points: np.ndarray, normals: np.ndarray) -> None:
+    """Errors of ``mesh`` and of the contacts (n, 3) against the true surface, into ``metrics``."""
+    if mesh is not None and truth is not None:
+        metrics.update(reconstruction_errors(mesh, truth, points, normals))
+
+
+def write_figures(out_dir: Path, gpis, mesh, truth, points: np.ndarray, use_normals: bool,
+                  curve=(), strategy: str = "") -> None:
+    """``reconstruction_error.png`` (with a truth), ``error_vs_touches.png`` (with a curve of
+    ``(touches, position_rmse_mm, normal_rmse_deg)``) and ``potential_slice.png``.
+
+    Raises ValueError when a figure cannot be framed (e.g. too few contacts).
+    """
+    from reconstruction import figures
+
+    out_dir = Path(out_dir)
+    if truth is not None:
+        figures.error_coloured_views(mesh, truth, points, out_dir / "reconstruction_error.png")
+    if curve:
+        errors = np.array([[p * 1e-3 for _, p, _ in curve]])
+        figures.error_vs_touches({strategy: errors}, out_dir / "error_vs_touches.png",
+                                 touches=[n for n, _, _ in curve])
+    # Without the truth the slice goes through the contacts (a one-sided touch set may not reach z = 0).
+    offset_m = 0.0 if truth is not None or not len(points) else float(np.median(points[:, 2]))
+    figures.potential_slice(gpis if use_normals else None, None if use_normals else gpis, truth,
+                            offset_m=offset_m, path=out_dir / "potential_slice.png")

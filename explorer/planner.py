@@ -93,6 +93,18 @@ class ApproachPlan:
         return self.path_q[0]
 
 
+def approach_line(target_m: np.ndarray, approach_dir: np.ndarray, config: PlannerConfig,
+                  depth_m: float | None = None) -> np.ndarray:
+    """(k, 3) pad positions of a touch's approach: ``standoff_m`` before the target to ``depth_m``
+    beyond it (default ``config.depth_m``), every ``waypoint_spacing_m``; in the frame of the inputs.
+
+    The loop's guarded move follows these; a miss sweeps them free.
+    """
+    depth = config.depth_m if depth_m is None else depth_m
+    offsets = np.arange(-config.standoff_m, depth + 1e-9, config.waypoint_spacing_m)
+    return target_m + offsets[:, None] * approach_dir
+
+
 class ApproachPlanner:
     """Plans touches for one arm and one stand.
 
@@ -141,11 +153,6 @@ class ApproachPlanner:
         result = self.ik.solve(self.positioner.centre_m - radius * dirs, dirs, self.rest_q)
         return dirs, result.success.copy()
 
-    @property
-    def reachable_fraction_of_directions(self) -> float:
-        """Fraction of approach directions the arm reaches at the stand centre (one stand pose)."""
-        return float(self._reachable.mean())
-
     def pose_scores(self, approach_object: np.ndarray) -> list[tuple[float, StandPose]]:
         """Stand poses ranked by the reachable map fraction around the world approach direction."""
         scores = []
@@ -178,8 +185,7 @@ class ApproachPlanner:
         target_w, approach_w = self.positioner.to_world(touch.target_m[None], touch.approach_dir[None], pose)
         target_w, approach_w = target_w[0], approach_w[0]
         depth = cfg.depth_m if touch.depth_m is None else touch.depth_m
-        offsets = np.arange(-cfg.standoff_m, depth + 1e-9, cfg.waypoint_spacing_m)
-        points = target_w + offsets[:, None] * approach_w
+        points = approach_line(target_w, approach_w, cfg, depth)
         standoff = self.ik.solve(points[:1], approach_w[None], seed)
         if not standoff.success[0]:
             return None

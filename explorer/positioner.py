@@ -129,7 +129,7 @@ class SimulatedStand(Positioner):
         return self._pose
 
     def move_to(self, pose: StandPose) -> None:
-        from robots.rotations import matrix_to_quat
+        from common.rotations import matrix_to_quat
 
         self._set(self.centre_m, matrix_to_quat(stand_rotation(pose)))
         self._pose = pose

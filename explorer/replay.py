@@ -16,7 +16,8 @@ follows the run:
 
 * **Autonomous** runs reset the detector when the arm arrives at the standoff, so replay resets it
   at ``t0`` and feeds it the press's readings; the contact runs from the detected start to
-  ``t1`` (or to a detected end). ``t1`` is the end of the hold.
+  ``t1`` (or to a detected end). ``t1`` is the end of the hold. The loop's realign rule applies as
+  the loop applied it: to every touch but a realign repeat (recorded ``strategy: realign``).
 * **Teleop** runs (``configuration.mode == "teleop"``) keep one detector over the whole stream, so
   replay runs one detector from the first reading to the last and, for each touch, takes the
   contact in progress at ``t1``: its readings after ``t0`` (when the pad came to rest) up to
@@ -24,6 +25,13 @@ follows the run:
   but adds no free space (the operator's path is not a planned line); two touches that fall in one
   detected contact (the pad never came off at the new end threshold) keep the first
   (``same_press``), as teleop records a contact once per press. Teleop has no realign rule.
+
+Each contact is measured by the loop's own pipeline (:mod:`explorer.contact`) with the recorded pad
+calibration and settling test, the GPIS is fed through the loop's :class:`SurfaceEvidence` (a
+recorded miss adds the free space it recorded), and the outputs are the run's
+(:mod:`explorer.outputs`, :func:`explorer.recording.contacts_csv_row`). Replayed with the recorded
+settings a session gives back its recorded contacts; every touch whose outcome differs from the
+recorded one is named in the result's ``notes``.
 
 Sessions written before ``press_t_s`` existed (autonomous only) fall back to the joint-state
 stream: the loop logs one joint state per poll of the sensor, and it polls every control tick only
@@ -38,23 +46,26 @@ from pathlib import Path
 
 import numpy as np
 
-from explorer import loop, outputs
+from explorer import outputs
+from explorer.contact import LOOP_SETTLING, ContactPipeline, NoContactMeasured, ObjectFrame, misaligned
+from explorer.evaluation import jsonable
+from explorer.evidence import SurfaceEvidence
 from explorer.loop import LoopConfig
-from explorer.planner import PlannerConfig
-from explorer.positioner import StandPose, stand_rotation
-from explorer.evaluation import jsonable, reconstruction_errors
-from explorer.recording import CONTACTS_HEADER
+from explorer.outputs import add_errors, write_figures, write_mesh
+from explorer.planner import PlannerConfig, approach_line
+from explorer.recording import CONTACTS_HEADER, contacts_csv_row
 from explorer.session import SessionReader
 from explorer.session.checks import require_replay_files, usable_readings
+from explorer.touch import TouchOutcome
 from reconstruction.gpis import GPIS, KERNEL_NAMES
 from sensor.contact_detection import PressureContactDetector, PressureDetectorConfig
-from sensor.normal_estimation import OrientationNotSettledError, SettlingConfig, oriented_contact
-from sensor.oriented_contact import OrientedContact
+from sensor.normal_estimation import SettlingConfig
+from sensor.pad_calibration import PadCalibration
 
-#: The settling criterion the exploration loop uses (for sessions that do not record theirs).
-LOOP_SETTLING = SettlingConfig(**loop.LOOP_SETTLING)
 #: Touch results whose press is in the recorded streams (the others never reached the standoff).
 PRESSED_RESULTS = ("contact", "realign", "miss", "no_normal")
+#: Two positions closer than this are the same contact, metres (the recording rounds nothing).
+SAME_POSITION_M = 1e-9
 #: A joint-state gap longer than this many typical spacings separates two presses.
 GAP_IN_SPACINGS = 4.0
 
@@ -102,54 +113,18 @@ class ReplaySettings:
 
 
 @dataclass
-class ReplayedTouch:
-    """One recorded press, detected again (object frame unless stated).
-
-    Attributes
-    ----------
-    index : int
-        Touch index in the session.
-    kind : str
-        Replay outcome: ``contact`` (used), ``set_aside`` (normal too far from the approach: the
-        loop's realign rule), ``no_normal`` (orientation never settled), ``miss``, or
-        ``same_press`` (teleop: in the same detected contact as an earlier touch), or
-        ``not_modelled`` (a contact outside the GPIS bounds).
-    recorded_kind : str
-        What the loop recorded for this touch.
-    target_m, approach_dir : (3,) float
-        The touch as planned.
-    stand_yaw_rad, stand_tilt_rad : float
-    contact : OrientedContact or None
-        World frame, as measured.
-    position_m, normal : (3,) float or None
-        Surface point (pad compression added back) and outward unit normal.
-    baseline_pa : float or None
-        Detector baseline at the contact start, pascals.
-    """
-
-    index: int
-    kind: str
-    recorded_kind: str
-    target_m: np.ndarray
-    approach_dir: np.ndarray
-    stand_yaw_rad: float
-    stand_tilt_rad: float
-    contact: OrientedContact | None = None
-    position_m: np.ndarray | None = None
-    normal: np.ndarray | None = None
-    baseline_pa: float | None = None
-
-
-@dataclass
 class ReplayResult:
-    touches: list[ReplayedTouch]
+    """The replayed touches (kinds as the loop's, see ``explorer.touch.TOUCH_KINDS``), the refitted
+    GPIS, the metrics and the notes (every touch whose outcome differs from the recorded one)."""
+
+    touches: list[TouchOutcome]
     gpis: GPIS
     metrics: dict
     out_dir: Path | None
     notes: list[str] = field(default_factory=list)
 
     @property
-    def contacts(self) -> list[ReplayedTouch]:
+    def contacts(self) -> list[TouchOutcome]:
         return [t for t in self.touches if t.kind == "contact"]
 
     @property
@@ -236,12 +211,24 @@ def detect_presses(readings, config: PressureDetectorConfig) -> list[DetectedPre
     return presses
 
 
-def _touch_from_event(event) -> ReplayedTouch:
-    """A touch event as a not-yet-detected ReplayedTouch (kind ``miss`` until a contact is found)."""
+def _touch_from_event(event) -> TouchOutcome:
+    """A touch event as a not-yet-detected outcome (kind ``miss`` until a contact is found)."""
     f = event.fields
-    return ReplayedTouch(int(f.get("index", -1)), "miss", f["result"], np.asarray(f["target_m"], float),
-                         np.asarray(f["approach_dir"], float), float(f.get("stand_yaw_rad", 0.0)),
-                         float(f.get("stand_tilt_rad", 0.0)))
+    free_space = f.get("free_space_m") if f.get("result") == "miss" else None
+    return TouchOutcome(int(f.get("index", -1)), "miss", np.asarray(f["target_m"], float),
+                        np.asarray(f["approach_dir"], float), float(f.get("stand_yaw_rad", 0.0)),
+                        float(f.get("stand_tilt_rad", 0.0)), strategy=str(f.get("strategy", "")),
+                        free_space_m=None if free_space is None else np.asarray(free_space, float).reshape(-1, 3))
+
+
+def recorded_pad(configuration: dict) -> PadCalibration:
+    """The pad calibration a session was recorded with (sessions before it was recorded: their
+    ``pad_compliance_m_per_n`` and the nominal pad)."""
+    if "pad" in configuration:
+        return PadCalibration.from_dict(configuration["pad"])
+    legacy = configuration.get("teleop") if configuration.get("mode") == "teleop" else configuration.get("loop")
+    compliance = (legacy or {}).get("pad_compliance_m_per_n")
+    return PadCalibration() if compliance is None else PadCalibration(compliance_m_per_n=float(compliance))
 
 
 def _config(cls, recorded: dict | None):
@@ -284,13 +271,12 @@ class SessionReplay:
         self.planner_config = _config(PlannerConfig, configuration.get("planner"))
         self.settling = (_config(SettlingConfig, configuration["settling"]) if "settling" in configuration
                          else LOOP_SETTLING)
-        compliance_from = configuration.get("teleop") if self.teleop else configuration.get("loop")
-        self.pad_compliance_m_per_n = float((compliance_from or {}).get(
-            "pad_compliance_m_per_n", LoopConfig.pad_compliance_m_per_n))
+        self.pad = recorded_pad(configuration)
         robot = self.metadata["robot"]
         robot_name = robot if isinstance(robot, str) else robot.get("name")
         spec = robots.load(robot_name)
         self.kinematics = ArmKinematics(spec)
+        self.pipeline = ContactPipeline(self.kinematics, self.pad, self.settling)
         if self.joint_states.dof not in (0, spec.dof):
             raise ValueError(f"{session_dir}: joint_states.csv has {self.joint_states.dof} joints but "
                              f"robot {robot_name!r} has {spec.dof}")
@@ -305,7 +291,7 @@ class SessionReplay:
             except (ValueError, FileNotFoundError):
                 self.truth = None
         if self.truth is not None:
-            from explorer.run import object_prior
+            from explorer.rig import object_prior
 
             self.prior = object_prior(self.truth)
 
@@ -328,6 +314,7 @@ class SessionReplay:
         use_normals = (self.configuration.get("use_normals", True) if settings.use_normals is None
                        else settings.use_normals)
         gpis = self._fit(touches, settings, use_normals, notes)
+        notes += self._differences(touches)
         metrics = self._metrics(touches, gpis, settings, detector_config, use_normals, notes)
         result = ReplayResult(touches, gpis, metrics, None if out_dir is None else Path(out_dir), notes)
         if out_dir is not None:
@@ -388,7 +375,7 @@ class SessionReplay:
         for i in sorted(set(range(len(spans))) - used):
             notes.append(f"press at t = {spans[i].t_start_s:.3f} s has no touch event (cut off?); skipped")
 
-    def _replay_touch(self, event, span: PressSpan, detector_config) -> ReplayedTouch:
+    def _replay_touch(self, event, span: PressSpan, detector_config) -> TouchOutcome:
         """An autonomous touch: the detector reset at the span's start sees its readings."""
         touch = _touch_from_event(event)
         t = self.readings.t_s
@@ -408,13 +395,13 @@ class SessionReplay:
         if start is None:
             return touch
         self._measure(touch, range(start, stop if end is None else end), span)
-        if touch.kind == "contact":
-            aligned = float(np.dot(touch.normal, -touch.approach_dir)) >= np.cos(self.loop_config.realign_angle_rad)
-            touch.kind = "contact" if aligned else "set_aside"
+        if (touch.kind == "contact" and touch.strategy != "realign"
+                and misaligned(touch.normal, touch.approach_dir, self.loop_config.realign_angle_rad)):
+            touch.kind = "realign"  # set aside, as the loop did; the repeat is the next touch
         return touch
 
     def _replay_teleop_touch(self, event, span: PressSpan, detected: list[DetectedPress],
-                             used: dict[int, int], notes: list[str]) -> ReplayedTouch:
+                             used: dict[int, int], notes: list[str]) -> TouchOutcome:
         """A teleop touch: the contact in progress at the span's end, from its readings after the start."""
         touch = _touch_from_event(event)
         t = self.readings.t_s
@@ -434,78 +421,79 @@ class SessionReplay:
         self._measure(touch, range(max(first, detected[k].start), stop), span)
         return touch
 
-    def _measure(self, touch: ReplayedTouch, rows: range, span: PressSpan) -> None:
-        """Contact from readings ``rows`` and the encoders at ``span.last``; kind ``contact`` or ``no_normal``."""
+    def _measure(self, touch: TouchOutcome, rows: range, span: PressSpan) -> None:
+        """Contact from readings ``rows`` and the encoders at ``span.last`` (the loop's pipeline);
+        kind ``contact`` or ``no_normal``."""
         readings = [self.readings[i] for i in rows]
-        pivot = self.kinematics.forward_kinematics(self.joint_states.q[span.last].copy(),
-                                                   link=self.kinematics.spec.pivot_link).position_m
+        frame = ObjectFrame.of_stand(self.stand_centre_m, touch.stand_yaw_rad, touch.stand_tilt_rad)
         try:
-            contact = oriented_contact(readings, pivot, self.kinematics.pivot_to_pad_in_body,
-                                       touch.baseline_pa, settling=self.settling)
-        except (OrientationNotSettledError, ValueError):  # ValueError: pressure saturated, too few readings
+            measured = self.pipeline.measure(readings, touch.baseline_pa, self.joint_states.q[span.last].copy(),
+                                             frame, touch.approach_dir)
+        except NoContactMeasured:
             touch.kind = "no_normal"
             return
-        surface = contact.position_m + contact.normal * contact.force_n * self.pad_compliance_m_per_n
-        rotation = stand_rotation(StandPose(touch.stand_yaw_rad, touch.stand_tilt_rad))
-        touch.contact = contact
-        touch.position_m = (surface - self.stand_centre_m) @ rotation
-        normal = contact.normal @ rotation
-        touch.normal = normal / np.linalg.norm(normal)
+        touch.contact = measured.world
+        touch.position_m = measured.position_m
+        touch.normal = measured.normal
+        touch.quality = measured.quality
+        touch.t_s = measured.world.t_s
         touch.kind = "contact"
 
     # ------------------------------------------------------------------ reconstruction
-    def _fit(self, touches: list[ReplayedTouch], settings: ReplaySettings, use_normals: bool,
+    def _fit(self, touches: list[TouchOutcome], settings: ReplaySettings, use_normals: bool,
              notes: list[str]) -> GPIS:
         """The GPIS, updated in the loop's order: contacts one by one, misses as free space."""
         options = {k: v for k, v in (("noise", settings.noise), ("normal_noise", settings.normal_noise))
                    if v is not None}
         gpis = GPIS(kernel=settings.kernel, use_normals=use_normals,
                     bounds=None if self.prior is None else self.prior.bounds(), **options)
-        pending: list[np.ndarray] = []
+        evidence = SurfaceEvidence(gpis, self.loop_config.free_space_value, self.loop_config.free_space_noise)
         for touch in touches:
             if touch.kind == "contact":
                 try:
-                    gpis.add(touch.position_m, touch.normal)
+                    evidence.add_contact(touch.position_m, touch.normal)
                 except ValueError as err:  # outside the prior box (teleop keeps such contacts unmodelled)
                     touch.kind = "not_modelled"
                     notes.append(f"touch {touch.index}: not modelled: {err}")
-                    continue
-                if pending:
-                    self._add_free_space(gpis, np.vstack(pending))
-                    pending = []
             elif touch.kind == "miss" and not self.teleop:  # a teleop path is not a planned line
-                swept = self._swept_line(touch, gpis)
-                if len(swept) and gpis.n_contacts:
-                    self._add_free_space(gpis, swept)
-                elif len(swept):
-                    pending.append(swept)
+                if touch.free_space_m is None:
+                    touch.free_space_m = evidence.inside_bounds(self._swept_line(touch))
+                evidence.add_free_space(touch.free_space_m)
         return gpis
 
-    def _swept_line(self, touch: ReplayedTouch, gpis: GPIS) -> np.ndarray:
-        """The approach path of a missed touch, object frame, inside the GPIS bounds (as the planner)."""
-        cfg = self.planner_config
-        offsets = np.arange(-cfg.standoff_m, cfg.depth_m + 1e-9, cfg.waypoint_spacing_m)
-        points = touch.target_m + offsets[:, None] * touch.approach_dir
-        if gpis.bounds is not None:
-            lo, hi = gpis.bounds
-            points = points[np.all((points > lo) & (points < hi), axis=1)]
-        return points
+    def _swept_line(self, touch: TouchOutcome) -> np.ndarray:
+        """The approach line of a touch the loop did not record as a miss, object frame (the
+        planner's line, to its default depth: a touch's own depth is not recorded)."""
+        return approach_line(touch.target_m, touch.approach_dir, self.planner_config)
 
-    def _add_free_space(self, gpis: GPIS, points: np.ndarray) -> None:
-        values = np.full(len(points), self.loop_config.free_space_value)
-        gpis.add_values(points, values, noise=self.loop_config.free_space_noise)
+    def _differences(self, touches: list[TouchOutcome]) -> list[str]:
+        """A note for every touch whose replayed outcome is not the recorded one."""
+        recorded = {int(e.fields["index"]): e.fields for e in self.events
+                    if e.fields.get("result") in PRESSED_RESULTS and "index" in e.fields}
+        notes = []
+        for touch in touches:
+            fields = recorded.get(touch.index)
+            if fields is None:
+                continue
+            if fields["result"] != touch.kind:
+                notes.append(f"touch {touch.index}: recorded {fields['result']}, replayed {touch.kind}")
+            elif touch.position_m is not None and fields.get("position_m") is not None:
+                moved = float(np.linalg.norm(touch.position_m - np.asarray(fields["position_m"], float)))
+                if moved > SAME_POSITION_M:
+                    notes.append(f"touch {touch.index}: contact {moved * 1e3:.3f} mm from the recorded one")
+        return notes
 
     # ------------------------------------------------------------------ outputs
     def _metrics(self, touches, gpis, settings, detector_config, use_normals, notes) -> dict:
         kinds = [t.kind for t in touches]
-        recorded = [t.recorded_kind for t in touches]
+        recorded = [e.fields.get("result") for e in self.events if e.fields.get("result") in PRESSED_RESULTS]
         return dict(
             source_session=str(self.directory), object=self.metadata.get("object"),
             robot=self.metadata.get("robot"), replay=dict(
                 asdict(settings), start_threshold_pa=detector_config.start_threshold_pa,
                 end_threshold_pa=detector_config.end_threshold_pa, use_normals=use_normals),
             touches=len(touches), contacts=kinds.count("contact"), misses=kinds.count("miss"),
-            set_aside=kinds.count("set_aside"), no_normal=kinds.count("no_normal"),
+            realign=kinds.count("realign"), no_normal=kinds.count("no_normal"),
             same_press=kinds.count("same_press"), not_modelled=kinds.count("not_modelled"),
             recorded_contacts=recorded.count("contact"), n_contacts_fitted=gpis.n_contacts,
             notes=list(notes),
@@ -514,30 +502,15 @@ class SessionReplay:
     def _write(self, result: ReplayResult, settings: ReplaySettings, use_normals: bool) -> None:
         out = result.out_dir
         out.mkdir(parents=True, exist_ok=True)
-        rows = [CONTACTS_HEADER]
-        for t in result.contacts:
-            values = [*t.position_m, *t.normal, t.contact.t_s, t.contact.force_n,
-                      t.stand_yaw_rad, t.stand_tilt_rad]
-            rows.append(f"{t.index}," + ",".join(repr(float(v)) for v in values) + "\n")
-        outputs.write_text(out / "contacts.csv", "".join(rows))
+        outputs.write_text(out / "contacts.csv", CONTACTS_HEADER + "".join(
+            contacts_csv_row(t, t.contact.t_s, t.contact.force_n) for t in result.contacts))
         metrics = result.metrics
-        mesh = None
-        if result.gpis.n_contacts:
-            resolution = settings.mesh_resolution or int(self.configuration.get("mesh_resolution", 96))
-            try:
-                mesh = result.gpis.mesh(resolution=resolution)
-                outputs.export_mesh(mesh, out / "reconstruction.ply")
-            except ValueError as exc:
-                metrics["reconstruction_error"] = str(exc)
-        if mesh is not None and self.truth is not None:
-            metrics.update(reconstruction_errors(mesh, self.truth, result.points_m, result.normals))
+        resolution = settings.mesh_resolution or int(self.configuration.get("mesh_resolution", 96))
+        mesh = write_mesh(result.gpis, resolution, out, metrics)
+        add_errors(metrics, mesh, self.truth, result.points_m, result.normals)
         outputs.write_json(out / "metrics.json", jsonable(metrics))
         if mesh is not None and self.truth is not None and settings.figures:
-            from reconstruction import figures
-
-            figures.error_coloured_views(mesh, self.truth, result.points_m, out / "reconstruction_error.png")
-            figures.potential_slice(result.gpis if use_normals else None, None if use_normals else result.gpis,
-                                    self.truth, path=out / "potential_slice.png")
+            write_figures(out, result.gpis, mesh, self.truth, result.points_m, use_normals)
 
 
 def replay(session_dir: Path, settings: ReplaySettings = ReplaySettings(),

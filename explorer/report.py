@@ -55,7 +55,7 @@ def write_report(run_dir: Path, out_dir: Path | None = None, notes: list[str] | 
 
     truth = None
     name = metrics.get("object")
-    if name in objects.names():
+    if name in objects.names() or objects.generated.is_generated_name(name):
         truth = objects.load(name).mesh
     no_truth = (f"no ground truth (object {name!r} is not a registry object)" if name is not None
                 else "no ground truth (metrics.json names no object)")

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from explorer.loop import TouchRecord
+from explorer.touch import TouchOutcome
 from explorer.recording import CONTACTS_HEADER, contacts_csv_row
 from explorer.session import SessionReader, SessionTruncatedWarning
 
@@ -38,7 +38,7 @@ class RecordedRun:
 
     Attributes
     ----------
-    touches : list of TouchRecord
+    touches : list of TouchOutcome
         The recorded touches in order (object frame; ``contact`` is the world-frame contact
         from ``contacts.jsonl`` where it was written, else None).
     end_time_s : float
@@ -47,12 +47,12 @@ class RecordedRun:
         The session metadata (``configuration`` holds the run settings).
     """
 
-    touches: list[TouchRecord]
+    touches: list[TouchOutcome]
     end_time_s: float
     metadata: dict
 
     @property
-    def contacts(self) -> list[TouchRecord]:
+    def contacts(self) -> list[TouchOutcome]:
         return [t for t in self.touches if t.kind == "contact"]
 
 
@@ -85,13 +85,13 @@ def load_recorded_run(out_dir: Path) -> RecordedRun:
     return RecordedRun(touches, _end_time(session), dict(session.metadata))
 
 
-def _touch_record(event, contacts_by_time) -> TouchRecord:
+def _touch_record(event, contacts_by_time) -> TouchOutcome:
     f = event.fields
 
     def vector(name):
         return None if f.get(name) is None else np.asarray(f[name], float)
 
-    record = TouchRecord(
+    record = TouchOutcome(
         index=int(f["index"]), kind=str(f["result"]), target_m=vector("target_m"),
         approach_dir=vector("approach_dir"), stand_yaw_rad=float(f.get("stand_yaw_rad", 0.0)),
         stand_tilt_rad=float(f.get("stand_tilt_rad", 0.0)), position_m=vector("position_m"),
@@ -139,7 +139,7 @@ def check_resumable(stored: dict, settings: dict) -> None:
                          f"{', '.join(sorted(CHANGEABLE_SETTINGS))} may change")
 
 
-def rewrite_contacts_csv(out_dir: Path, touches: list[TouchRecord]) -> None:
+def rewrite_contacts_csv(out_dir: Path, touches: list[TouchOutcome]) -> None:
     """Write ``contacts.csv`` afresh from the recorded contacts (atomically: temporary file, rename)."""
     path = Path(out_dir) / "contacts.csv"
     partial = path.with_suffix(".csv.partial")

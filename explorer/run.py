@@ -23,107 +23,70 @@ from pathlib import Path
 import numpy as np
 
 from explorer.coverage import reachable_fraction
-from explorer.evaluation import jsonable, reconstruction_errors
-from explorer.loop import LOOP_SETTLING, ExplorationLoop, LoopConfig, TouchRecord
-from explorer.outputs import export_mesh, write_json
+from explorer.evaluation import jsonable
+from explorer.config import ExplorationConfig
+from explorer.contact import LOOP_SETTLING
+from explorer.loop import ExplorationLoop, LoopConfig
+from explorer.observer import ObservedStrategy
+from explorer.outputs import add_errors, write_figures, write_json, write_mesh
 from explorer.planner import ApproachPlanner, PlannerConfig
 from explorer.recording import RunRecorder
 from explorer.resume import check_resumable, load_recorded_run, resume_time_offset, rewrite_contacts_csv
+from explorer.rig import Rig, object_prior
 from explorer.simulation import build_scene
 from explorer.strategies import make_strategy
-from explorer.touch import ObjectPrior
+from explorer.touch import TouchOutcome
 from reconstruction.gpis import GPIS
 from reconstruction.metrics import surface_error
 from sensor.contact_detection import PressureDetectorConfig
-from sensor.normal_estimation import SettlingConfig
-
-#: The prior box: the object's bounding box grown by this fraction of its size plus a centimetre
-#: (a rough location and size; an over-estimate is safe).
-PRIOR_GROWTH = 0.1
-PRIOR_MARGIN_M = 0.01
 
 
 @dataclass
 class RunSettings:
-    """Everything that defines a run (saved in the session metadata)."""
+    """Everything that defines a run (saved in the session metadata).
+
+    The defaults shared with a configuration file's ``[exploration]`` are
+    :class:`explorer.config.ExplorationConfig`'s (one source for both).
+    """
 
     object: str = "banana"
     robot: str = "armar3"
-    strategy: str = "variance"
-    touches: int = 50
-    seed: int = 0
-    use_normals: bool = True
+    strategy: str = ExplorationConfig.strategy
+    touches: int = ExplorationConfig.touches
+    seed: int = ExplorationConfig.seed
+    use_normals: bool = ExplorationConfig.use_normals
     gui: bool = False
-    eval_every: int = 5
-    mesh_resolution: int = 96
+    eval_every: int = ExplorationConfig.eval_every
+    mesh_resolution: int = ExplorationConfig.mesh_resolution
     loop: LoopConfig = field(default_factory=LoopConfig)
     planner: PlannerConfig = field(default_factory=PlannerConfig)
 
 
 @dataclass
 class RunResult:
-    records: list[TouchRecord]
+    records: list[TouchOutcome]
     gpis: GPIS
     metrics: dict
     out_dir: Path
 
 
-def object_prior(mesh) -> ObjectPrior:
-    """The rough location and size the loop is given (object frame)."""
-    lo, hi = mesh.bounds
-    return ObjectPrior(0.5 * (lo + hi), 0.5 * (hi - lo) * (1 + PRIOR_GROWTH) + PRIOR_MARGIN_M)
-
-
-@dataclass
-class Rig:
-    """What a run explores with; simulated and hardware rigs are built the same way.
-
-    Attributes
-    ----------
-    robot : robots.interface.Robot
-    sensor : sensor.interface.TactileSensor
-        Opened by whoever built the rig.
-    kinematics : robots.kinematics.ArmKinematics
-        Of the robot's URDF.
-    positioner : Positioner
-        Holds the object; its pose carries contacts into the object frame.
-    prior : ObjectPrior
-        The object's rough location and size, object frame.
-    reference : trimesh.Trimesh or None
-        The true surface, object frame, metres, for error metrics (None on hardware without one).
-    description : dict
-        Session metadata: ``robot``, ``sensor``, ``object``, ``backend``.
-    alignment : sensor.normal_estimation.ImuAlignment or None
-        The sensor's calibrated IMU mounting (None: identity, as in simulation).
-    """
-
-    robot: object
-    sensor: object
-    kinematics: object
-    positioner: object
-    prior: ObjectPrior
-    reference: object | None
-    description: dict
-    alignment: object | None = None
-
-
-def explore(settings: RunSettings, out_dir: Path, progress=None, resume: bool = False, *,
-            status=None) -> RunResult:
+def explore(settings: RunSettings, out_dir: Path, progress=None, resume: bool = False,
+            observer=None, *, status=None) -> RunResult:
     """Run one simulated exploration and write its outputs to ``out_dir``.
 
     With ``resume=True`` the run already in ``out_dir`` is continued to ``settings.touches``
-    (see :func:`run_on_rig`).
+    (see :func:`run_on_rig`); ``observer`` as there.
     """
     with build_scene(settings.object, settings.robot, seed=settings.seed, gui=settings.gui) as scene:
         truth = scene.object_model.mesh
         rig = Rig(scene.arm, scene.sensor, scene.kinematics, scene.stand, object_prior(truth), truth,
                   dict(robot=settings.robot, sensor="simulated BNO055 + BMP280 under polyurethane",
-                       object=settings.object, backend="simulation"))
-        return run_on_rig(rig, settings, out_dir, progress, resume, status=status)
+                       object=settings.object, backend="simulation"), scene.pad)
+        return run_on_rig(rig, settings, out_dir, progress, resume, observer, status=status)
 
 
-def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, resume: bool = False, *,
-               status=None) -> RunResult:
+def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, resume: bool = False,
+               observer=None, *, status=None) -> RunResult:
     """Explore with ``rig`` and write the run's outputs to ``out_dir`` (see the module docstring).
 
     Whatever stops the run (a device that stops answering, Ctrl-C), what was recorded stays on
@@ -140,6 +103,8 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
         and the loop goes on to ``settings.touches``, appending to the same files. Settings other
         than the budget and the evaluation must be the recorded ones. The figures of the earlier
         parts (``metrics.json``: error curve, wall / simulated / phase times) are carried over.
+    observer : explorer.observer.RunObserver, optional
+        Shown the run as it happens (e.g. :class:`explorer.rerun_view.RerunObserver`).
     status : callable(str, int, int) or None
         Told about the slow steps after the last touch: ``status(step, done, total)``.
     """
@@ -152,7 +117,7 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
     planner = ApproachPlanner(rig.kinematics, PadIK(rig.kinematics), rig.positioner, prior, settings.planner)
     gpis = GPIS(bounds=prior.bounds(), use_normals=settings.use_normals)
     configuration = dict(asdict(settings), detector=asdict(PressureDetectorConfig()),
-                         settling=asdict(SettlingConfig(**LOOP_SETTLING)),
+                         settling=asdict(LOOP_SETTLING), pad=rig.pad.as_dict(),
                          stand_centre_m=rig.positioner.centre_m,
                          prior=dict(centre_m=prior.centre_m, half_extent_m=prior.half_extent_m))
     metadata = dict(rig.description, seed=settings.seed, configuration=jsonable(configuration))
@@ -165,10 +130,12 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
         check_resumable(recorded.metadata.get("configuration", {}), jsonable(configuration))
         time_offset_s = resume_time_offset(recorded.end_time_s, rig.robot.time_s())
         rewrite_contacts_csv(out_dir, recorded.touches)
-    recorder = RunRecorder(out_dir, metadata, resume=resume, time_offset_s=time_offset_s)
-    loop = ExplorationLoop(rig.robot, rig.sensor, rig.kinematics, planner, rig.positioner,
-                           make_strategy(settings.strategy, settings.seed), prior, gpis,
-                           loop_settings, recorder, alignment=rig.alignment)
+    recorder = RunRecorder(out_dir, metadata, resume=resume, time_offset_s=time_offset_s, observer=observer)
+    strategy = make_strategy(settings.strategy, settings.seed)
+    if observer is not None:
+        observer.run_started(rig, gpis, metadata)
+        strategy = ObservedStrategy(strategy, observer, lambda: recorder.latest_time_s + recorder.time_offset_s)
+    loop = ExplorationLoop(rig, planner, strategy, gpis, loop_settings, recorder)
     if recorded is not None:
         loop.restore(recorded.touches)
         recorder.event("resumed", rig.robot.time_s(), time_offset_s=time_offset_s,
@@ -177,7 +144,7 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
     curve: list[tuple[int, float, float]] = []
     eval_s = [0.0]
 
-    def after_touch(record: TouchRecord) -> None:
+    def after_touch(record: TouchOutcome) -> None:
         if progress is not None:
             progress(record)
         n = len(loop.records)
@@ -291,15 +258,10 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
     contacts = np.array([r.position_m for r in records if r.kind == "contact"]).reshape(-1, 3)
     normals = np.array([r.normal for r in records if r.kind == "contact"]).reshape(-1, 3)
     try:
-        if gpis.n_contacts:
-            try:
-                mesh = gpis.mesh(resolution=settings.mesh_resolution)
-                export_mesh(mesh, out_dir / "reconstruction.ply")
-                recorder.reconstruction(mesh, gpis.n_contacts, recorder.latest_time_s)
-            except ValueError as exc:
-                metrics["reconstruction_error"] = str(exc)
-        if mesh is not None and truth is not None:
-            metrics.update(reconstruction_errors(mesh, truth, contacts, normals))
+        mesh = write_mesh(gpis, settings.mesh_resolution, out_dir, metrics)
+        if mesh is not None:
+            recorder.reconstruction(mesh, gpis.n_contacts, recorder.latest_time_s)
+        add_errors(metrics, mesh, truth, contacts, normals)
         if truth is not None:
             steps = 48
             report = None if status is None else (lambda done: status("reachable fraction", done, steps))
@@ -308,7 +270,8 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
         if mesh is not None:
             curve_points = [(c["touches"], c["position_rmse_mm"], c["normal_rmse_deg"]) for c in metrics["error_curve"]]
             try:
-                _plots(out_dir, gpis, mesh, truth, contacts, curve_points, settings)
+                write_figures(out_dir, gpis, mesh, truth, contacts, settings.use_normals, curve_points,
+                              settings.strategy)
             except ValueError as exc:  # e.g. too few contacts to frame a figure: say so, keep the rest
                 metrics["figure_error"] = str(exc)
     except KeyboardInterrupt as exc:  # keep what is known; the caller learns of the interrupt below
@@ -320,18 +283,3 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
         raise interrupted
     return metrics
 
-
-def _plots(out_dir, gpis, mesh, truth, contacts, curve, settings) -> None:
-    from reconstruction import figures
-
-    if truth is not None:
-        figures.error_coloured_views(mesh, truth, contacts, out_dir / "reconstruction_error.png")
-    if curve:
-        errors = np.array([[p * 1e-3 for _, p, _ in curve]])
-        figures.error_vs_touches({settings.strategy: errors}, out_dir / "error_vs_touches.png",
-                                 touches=[n for n, _, _ in curve])
-    # Without the truth the slice goes through the contacts (a one-sided touch set may not reach z = 0).
-    offset_m = 0.0 if truth is not None or not len(contacts) else float(np.median(contacts[:, 2]))
-    figures.potential_slice(gpis if settings.use_normals else None,
-                            None if settings.use_normals else gpis, truth, offset_m=offset_m,
-                            path=out_dir / "potential_slice.png")

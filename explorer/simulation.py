@@ -16,11 +16,8 @@ from explorer.positioner import SimulatedStand, turntable_poses
 from robots.kinematics import ArmKinematics
 from robots.sim_arm import EncoderModel, SimArm
 from robots.sim_world import SimWorld
+from sensor.pad_calibration import PAD_STIFFNESS_N_PER_M, PadCalibration
 from sensor.sim_sensor import SimulatedSensorConfig, SimulatedTactileSensor
-
-#: Contact stiffness of the 3.7 mm polyurethane pad: a soft cast pad (shore 00, about 0.04 MPa)
-#: over the 18 x 18 mm face compresses about 0.3 mm per newton.
-PAD_STIFFNESS_N_PER_M = 3.0e3
 
 #: 14-bit absolute joint encoders: 2 pi / 2^14 = 0.38 mrad, about 0.27 mm at the fingertip.
 ENCODER_RESOLUTION_RAD = 2 * np.pi / 2**14
@@ -39,6 +36,8 @@ class SimScene:
     stand : SimulatedStand
     object_model : objects.ObjectModel
         Ground truth (object frame).
+    pad : PadCalibration
+        The simulated pad's own force model and compliance (what a perfect calibration gives).
     """
 
     world: SimWorld
@@ -47,6 +46,7 @@ class SimScene:
     kinematics: ArmKinematics
     stand: SimulatedStand
     object_model: "objects.ObjectModel"
+    pad: PadCalibration
 
     def close(self) -> None:
         self.sensor.close()
@@ -89,7 +89,8 @@ def build_scene(object_name: str, robot_name: str = "armar3", seed: int = 0, gui
         sensor = SimulatedTactileSensor(config=sensor_config, seed=seed)
         world.add_step_listener(lambda _t: sensor.on_step(arm.pad_state()))
         sensor.open()
-        return SimScene(world, arm, sensor, ArmKinematics(spec), stand, model)
+        pad = PadCalibration(sensor.config.barometer.pad, 1.0 / pad_stiffness_n_per_m)
+        return SimScene(world, arm, sensor, ArmKinematics(spec), stand, model, pad)
     except Exception:
         world.close()
         raise

@@ -49,13 +49,27 @@ class ExplorationState:
 
 
 class TouchStrategy(abc.ABC):
-    """Proposes touches, best first."""
+    """Proposes touches, best first.
+
+    The loop calls :meth:`propose` each step, :meth:`accepted` for the touch it then tries (and for
+    every recorded touch when a run is resumed), and :meth:`surface_variance` to stop early on a
+    variance threshold; the last two have defaults for strategies that keep no bookkeeping and
+    estimate no variance.
+    """
 
     name: str = ""
 
     @abc.abstractmethod
     def propose(self, state: ExplorationState, count: int) -> list[Touch]:
         """Up to ``count`` touches, best first."""
+
+    def accepted(self, touch: Touch) -> None:
+        """``touch`` (one this strategy proposed) is being tried; the default keeps no record."""
+
+    def surface_variance(self, state: ExplorationState) -> tuple[np.ndarray, np.ndarray] | None:
+        """Points near the current surface (k, 3) and their posterior variance (k,), object frame;
+        None (the default) when the strategy has no variance estimate."""
+        return None
 
 
 def fibonacci_directions(n: int) -> np.ndarray:
@@ -236,7 +250,7 @@ class VarianceStrategy(TouchStrategy):
         return touches or self._uniform.propose(state, count)
 
 
-STRATEGIES = {"uniform": UniformStrategy, "random": RandomStrategy, "variance": VarianceStrategy}
+STRATEGIES = {cls.name: cls for cls in (UniformStrategy, RandomStrategy, VarianceStrategy)}
 
 
 def make_strategy(name: str, seed: int = 0) -> TouchStrategy:

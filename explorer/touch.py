@@ -1,9 +1,14 @@
-"""What the exploration loop knows beforehand and what a strategy asks for."""
+"""What the exploration loop knows beforehand, what a strategy asks for, and what a touch gave."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+
+#: What a touch can end as. The loop records the first six; replay adds ``same_press`` (teleop:
+#: in the same detected contact as an earlier touch) and ``not_modelled`` (outside the GPIS box).
+TOUCH_KINDS = ("contact", "realign", "miss", "unreachable", "blocked", "no_normal", "same_press",
+               "not_modelled")
 
 
 @dataclass(frozen=True)
@@ -41,12 +46,6 @@ class ObjectPrior:
         """The prior box grown by ``padding`` x its largest half extent on every side."""
         pad = padding * float(self.half_extent_m.max())
         return self.centre_m - self.half_extent_m - pad, self.centre_m + self.half_extent_m + pad
-
-    @classmethod
-    def from_mesh(cls, mesh, margin: float = 0.0) -> "ObjectPrior":
-        """The bounding box of a mesh (object frame), grown by ``margin`` metres."""
-        lo, hi = mesh.bounds
-        return cls(0.5 * (lo + hi), 0.5 * (hi - lo) + margin)
 
 
 @dataclass(frozen=True)
@@ -86,3 +85,51 @@ class Touch:
                              f"{target.tolist()}, {direction.tolist()}")
         object.__setattr__(self, "target_m", target)
         object.__setattr__(self, "approach_dir", direction / norm)
+
+
+@dataclass
+class TouchOutcome:
+    """What happened on one touch (object frame unless stated): the one record the loop writes,
+    resume reads back and replay recomputes.
+
+    Attributes
+    ----------
+    index : int
+    kind : str
+        One of :data:`TOUCH_KINDS`.
+    target_m, approach_dir : (3,) float
+        The touch as planned.
+    stand_yaw_rad, stand_tilt_rad : float
+        The stand during the touch.
+    contact : sensor.oriented_contact.OrientedContact or None
+        World frame, as measured.
+    position_m, normal : (3,) float or None
+        Surface point and outward unit normal (also for a contact set aside for a realign).
+    t_s : float
+        Time of the outcome (the contact's time for a contact), seconds.
+    press_t_s : (float, float) or None
+        Detector reset .. end of the hold: the readings replay detects the contact in.
+    strategy : str
+        The strategy that proposed the touch (``realign`` for a repeat).
+    free_space_m : (k, 3) float or None
+        Points a missed approach swept, object frame.
+    baseline_pa : float or None
+        The detector's free-pad pressure at the contact start, pascals.
+    quality : explorer.contact.ContactQuality or None
+    """
+
+    index: int
+    kind: str
+    target_m: np.ndarray
+    approach_dir: np.ndarray
+    stand_yaw_rad: float = 0.0
+    stand_tilt_rad: float = 0.0
+    contact: object | None = None
+    position_m: np.ndarray | None = None
+    normal: np.ndarray | None = None
+    t_s: float = 0.0
+    press_t_s: tuple[float, float] | None = None
+    strategy: str = ""
+    free_space_m: np.ndarray | None = None
+    baseline_pa: float | None = None
+    quality: object | None = None

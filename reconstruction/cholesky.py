@@ -28,7 +28,8 @@ class GrowingCholesky:
     matrix : (n, n) float
         Initial symmetric positive definite matrix (may be 0 x 0).
     tail_capacity : int
-        Rows appended before the factor is consolidated into one contiguous block.
+        Rows appended before the factor is consolidated into one contiguous block. A block larger
+        than this goes straight into the consolidated factor.
     """
 
     def __init__(self, matrix: np.ndarray, tail_capacity: int = 512):
@@ -59,22 +60,47 @@ class GrowingCholesky:
         -------
         (b, n + b) float
             The new rows of ``L``.
+
+        Raises
+        ------
+        NotPositiveDefiniteError
+            If the grown matrix is not positive definite; the factor is then unchanged.
         """
         cross = torch.as_tensor(np.asarray(cross, dtype=np.float64))
         block = torch.as_tensor(np.asarray(block, dtype=np.float64))
         b = block.shape[0]
         if cross.shape != (self.n, b):
             raise ValueError(f"cross must be ({self.n}, {b}), got {tuple(cross.shape)}")
+        S = self._solve_lower(cross)
+        M = _cholesky(block - S.T @ S)  # raises before any state changes: a failed append is a no-op
         if self._k + b > self.tail_capacity:
             self._consolidate()
-        S = self._solve_lower(cross)
-        M = _cholesky(block - S.T @ S)
+        if b > self.tail_capacity:
+            # Larger than the tail buffers: place the block directly into the consolidated factor.
+            n0 = self._n0
+            A = torch.zeros((n0 + b, n0 + b), dtype=torch.float64)
+            A[:n0, :n0] = self._A
+            A[n0:, :n0] = S.T
+            A[n0:, n0:] = M
+            self._A = A
+            self._reset_tail()
+            return torch.cat([S.T, M], dim=1).numpy()
         k0, k1 = self._k, self._k + b
         self._P[k0:k1] = S[: self._n0].T
         self._T[k0:k1, :k0] = S[self._n0:].T
         self._T[k0:k1, k0:k1] = M
         self._k = k1
         return torch.cat([S.T, M], dim=1).numpy()
+
+    def truncate(self, n: int) -> None:
+        """Shrink to the factor of the leading ``n x n`` block (undoes appends beyond ``n``)."""
+        if not 0 <= n <= self.n:
+            raise ValueError(f"cannot truncate a factor of size {self.n} to {n}")
+        if n >= self._n0:
+            self._k = n - self._n0
+            return
+        self._A = self._A[:n, :n].clone()
+        self._reset_tail()
 
     def rows(self, start: int, stop: int) -> np.ndarray:
         """``L[start:stop, :stop]`` as a new array, (stop - start, stop) float."""

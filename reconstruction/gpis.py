@@ -22,10 +22,10 @@ import scipy.linalg
 import torch
 
 from reconstruction.cholesky import GrowingCholesky
-from reconstruction.kernels import (Kernel, QuadraticTrend, ReferenceThinPlateKernel,
-                                    SquaredExponentialKernel, ThinPlateKernel, thin_plate_radius)
+from reconstruction.kernels import Kernel, QuadraticTrend, kernel_names, make_kernel
 
-KERNEL_NAMES = ("thin_plate", "thin_plate_reference", "squared_exponential")
+#: Names of the registered kernels (:data:`reconstruction.kernels.KERNELS`).
+KERNEL_NAMES = kernel_names()
 
 #: Bounding boxes without user bounds are the contacts' box grown by this fraction on each side.
 DEFAULT_REGION_PADDING = 0.25
@@ -63,8 +63,8 @@ class GPIS:
     def __init__(self, kernel: str | Kernel = "thin_plate", noise: float = 5e-4,
                  normal_noise: float = 0.2, use_normals: bool = True,
                  bounds: Sequence[Sequence[float]] | None = None, trend: float | None = 3.0):
-        if isinstance(kernel, str) and kernel not in KERNEL_NAMES:
-            raise ValueError(f"unknown kernel {kernel!r}; choose one of {', '.join(KERNEL_NAMES)} "
+        if isinstance(kernel, str) and kernel not in kernel_names():
+            raise ValueError(f"unknown kernel {kernel!r}; choose one of {', '.join(kernel_names())} "
                              "or pass a Kernel instance")
         if not isinstance(kernel, (str, Kernel)):
             raise ValueError(f"kernel must be a name or a Kernel instance, got {type(kernel).__name__}")
@@ -140,11 +140,16 @@ class GPIS:
         values : (k,) float, implicit-function values (negative outside)
         noise : float, optional
             Their standard deviation; defaults to ``noise``.
+
+        Any number of points at once. If the update fails (e.g. ``NotPositiveDefiniteError``) the
+        GPIS is left exactly as it was before the call.
         """
         points = _finite_array(points, "points", (None, 3))
         values = _finite_array(values, "values", (len(points),))
         if not self.n_contacts:
             raise ValueError("add_values needs at least one contact first (fit or add)")
+        if noise is not None and not (np.isfinite(noise) and noise > 0):
+            raise ValueError(f"noise must be a positive finite standard deviation, got {noise!r}")
         if self.bounds is not None:
             _check_inside(points, self.bounds)
         self._append(points, values, None, noise)
@@ -210,10 +215,47 @@ class GPIS:
                     "ij,ij->j", kx, scipy.linalg.lu_solve(self._lu, kx, check_finite=False))
         return out
 
-    def cross_covariance(self, x: np.ndarray) -> np.ndarray:
-        """Covariance between every observation row and ``f`` at (m, 3) points; (rows, m)."""
-        full = self._joint(self._obs_points, np.asarray(x, float))[:, :, :, 0]
-        return full[self._row_point, self._row_comp]
+    def cross_covariance(self, x: np.ndarray, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """Covariance between observation rows ``start:stop`` and ``f`` at (m, 3) points.
+
+        Returns
+        -------
+        (stop - start, m) float64
+        """
+        stop = self.n_rows if stop is None else stop
+        if not 0 <= start <= stop <= self.n_rows:
+            raise ValueError(f"rows {start}:{stop} outside 0:{self.n_rows}")
+        points, comps = self._row_point[start:stop], self._row_comp[start:stop]
+        used, index = np.unique(points, return_inverse=True)
+        full = self._joint(self._obs_points[used], np.asarray(x, float))[:, :, :, 0]
+        return full[index, comps]
+
+    # ------------------------------------------------------------------ factor (for trackers)
+    @property
+    def positive_definite(self) -> bool:
+        """Whether the system is positive definite, so a growing Cholesky factor holds it."""
+        self._require_fit()
+        return bool(self.kernel.positive_definite)
+
+    @property
+    def generation(self) -> int:
+        """Counts full factorisations (fit, radius growth); unchanged by incremental adds."""
+        return self._generation
+
+    def whiten(self, rhs: np.ndarray) -> np.ndarray:
+        """``L^-1 rhs`` with ``L`` the Cholesky factor of the observation covariance.
+
+        Parameters
+        ----------
+        rhs : (rows,) or (rows, r) float
+        """
+        self._require_factor()
+        return self._factor.solve_lower(rhs)
+
+    def factor_rows(self, start: int, stop: int) -> np.ndarray:
+        """Rows of the Cholesky factor, ``L[start:stop, :stop]``; (stop - start, stop) float64."""
+        self._require_factor()
+        return self._factor.rows(start, stop)
 
     def prior_variance(self, x: np.ndarray) -> np.ndarray:
         """(m,) prior variance of ``f`` at (m, 3) points."""
@@ -280,19 +322,14 @@ class GPIS:
         if self.trend_spec is not None and self.use_normals:
             centre = 0.5 * (self._region[0] + self._region[1])
             self.trend = QuadraticTrend(centre, self.trend_spec / (0.5 * diagonal))
-        spread = float(np.linalg.norm(hi - lo))
-        if self.kernel_spec == "thin_plate":
-            self.kernel = ThinPlateKernel(thin_plate_radius(diagonal, spread))
-        elif self.kernel_spec == "thin_plate_reference":
-            self.kernel = ReferenceThinPlateKernel(thin_plate_radius(diagonal, spread))
-        elif self.kernel_spec == "squared_exponential":
-            self.kernel = SquaredExponentialKernel(length_m=diagonal / 5, scale=1.0)
+        if isinstance(self.kernel_spec, str):
+            self.kernel = make_kernel(self.kernel_spec, diagonal, float(np.linalg.norm(hi - lo)))
 
     def _needs_larger_radius(self, points: np.ndarray) -> bool:
         if self.bounds is not None:
             _check_inside(points, self.bounds)
             return False
-        if not isinstance(self.kernel_spec, str) or self.kernel_spec == "squared_exponential":
+        if not isinstance(self.kernel_spec, str) or not self.kernel.grows_with_workspace:
             return False
         lo, hi = self._region
         return bool(np.any(points < lo) or np.any(points > hi))
@@ -336,7 +373,7 @@ class GPIS:
         K[np.diag_indices_from(K)] += self._noise_var
         self._generation += 1
         self._alpha = None
-        if self._positive_definite:
+        if self.positive_definite:
             self._factor = GrowingCholesky(K)
             self._z = self._factor.solve_lower(self._y)
         else:
@@ -344,12 +381,22 @@ class GPIS:
             self._lu = scipy.linalg.lu_factor(K, check_finite=False)
             self._K = K
 
-    @property
-    def _positive_definite(self) -> bool:
-        return not isinstance(self.kernel, ReferenceThinPlateKernel)
 
     def _append(self, points, values, normals, noise=None):
-        if not self._positive_definite:
+        """Add observation rows and update the factor; on any failure the GPIS is left as it was."""
+        saved = {name: getattr(self, name) for name in _OBSERVATION_STATE}
+        n_factor = None if self._factor is None else self._factor.n
+        try:
+            self._append_unguarded(points, values, normals, noise)
+        except BaseException:
+            for name, value in saved.items():
+                setattr(self, name, value)
+            if self._factor is not None and n_factor is not None:
+                self._factor.truncate(n_factor)
+            raise
+
+    def _append_unguarded(self, points, values, normals, noise):
+        if not self.positive_definite:
             self._stage(points, values, normals, noise)
             self._factor_all()
             return
@@ -378,6 +425,12 @@ class GPIS:
         table = np.zeros((len(self._obs_points), 4))
         np.add.at(table, (self._row_point, self._row_comp), self._alpha)
         return table
+
+    def _require_factor(self) -> None:
+        self._require_fit()
+        if self._factor is None:
+            raise RuntimeError(f"the kernel {self.kernel!r} is not positive definite: its system has "
+                               "no Cholesky factor")
 
     def _require_fit(self) -> None:
         if self.kernel is None or not self.n_rows:
@@ -420,7 +473,7 @@ class VarianceTracker:
     """
 
     def __init__(self, gpis: GPIS, candidates: np.ndarray):
-        if not gpis._positive_definite:
+        if not gpis.positive_definite:
             raise ValueError("incremental variance needs a positive definite kernel")
         self.gpis = gpis
         self.candidates = _finite_array(candidates, "candidates", (None, 3))
@@ -437,8 +490,7 @@ class VarianceTracker:
     def variance(self) -> np.ndarray:
         """(m,) float64 posterior variance at the candidates."""
         gp = self.gpis
-        gp._require_fit()
-        if self._generation != gp._generation:
+        if self._generation != gp.generation:
             self._recompute()
         elif self._rows < gp.n_rows:
             self._extend()
@@ -446,19 +498,18 @@ class VarianceTracker:
 
     def _recompute(self) -> None:
         gp = self.gpis
-        W = gp._factor.solve_lower(gp.cross_covariance(self.candidates))
+        W = gp.whiten(gp.cross_covariance(self.candidates))
         self._variance = gp.prior_variance(self.candidates) - np.einsum("ij,ij->j", W, W)
         self._Wt = np.zeros((len(self.candidates), 0))
         self._store(W, used=0)
         self._rows = gp.n_rows
-        self._generation = gp._generation
+        self._generation = gp.generation
 
     def _extend(self) -> None:
         gp = self.gpis
         start, stop = self._rows, gp.n_rows
-        rows = gp._factor.rows(start, stop)
-        full = gp._joint(gp._obs_points[gp._row_point[start:stop]], self.candidates)[:, :, :, 0]
-        k_new = full[np.arange(stop - start), gp._row_comp[start:stop]]
+        rows = gp.factor_rows(start, stop)
+        k_new = gp.cross_covariance(self.candidates, start, stop)
         rhs = k_new - (self._Wt[:, :start] @ rows[:, :start].T).T
         W_new = scipy.linalg.solve_triangular(rows[:, start:], rhs, lower=True)
         self._variance = self._variance - np.einsum("ij,ij->j", W_new, W_new)
@@ -473,6 +524,11 @@ class VarianceTracker:
             grown[:, :used] = self._Wt[:, :used]
             self._Wt = grown
         self._Wt[:, used:need] = new_rows.T
+
+
+#: Attributes an append replaces (never mutates in place), restored when an append fails.
+_OBSERVATION_STATE = ("_obs_points", "_row_point", "_row_comp", "_y", "_noise_var", "_z", "_alpha",
+                      "_factor", "_lu", "_generation")
 
 
 # ---------------------------------------------------------------------- field evaluation

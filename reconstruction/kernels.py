@@ -26,7 +26,30 @@ import numpy as np
 
 
 class Kernel(abc.ABC):
-    """A stationary isotropic kernel described by its radial functions (see module docstring)."""
+    """A stationary isotropic kernel described by its radial functions (see module docstring).
+
+    Attributes
+    ----------
+    name : str
+        The registry name (set by :func:`register_kernel`; empty for unregistered kernels).
+    positive_definite : bool
+        Whether the joint covariance of values and gradients is positive definite for points in the
+        workspace the kernel was made for. The GPIS factors a positive definite system with a
+        growing Cholesky factor (incremental add, variance tracker) and anything else with a
+        symmetric indefinite factorisation that is refitted on every add.
+    grows_with_workspace : bool
+        Whether :meth:`for_workspace` depends on the workspace size, so that contacts outside the
+        region the kernel was made for need a new kernel (and a refit).
+    """
+
+    name: str = ""
+    positive_definite: bool = True
+    grows_with_workspace: bool = False
+
+    @classmethod
+    def for_workspace(cls, region_diagonal_m: float, contact_spread_m: float) -> "Kernel":
+        """The kernel's default for a workspace: region diagonal and contacts' spread, metres."""
+        raise NotImplementedError(f"{cls.__name__} has no default for a workspace; pass an instance")
 
     @abc.abstractmethod
     def phi(self, r: np.ndarray) -> np.ndarray:
@@ -101,6 +124,50 @@ class Kernel(abc.ABC):
         return out.transpose(0, 2, 1, 3)
 
 
+#: Registered kernels by name, in registration order (see :func:`register_kernel`).
+KERNELS: dict[str, type[Kernel]] = {}
+
+
+def register_kernel(name: str):
+    """Class decorator: register a :class:`Kernel` subclass under ``name``.
+
+    The class must implement :meth:`Kernel.for_workspace`; the GPIS builds named kernels with it.
+    """
+    def decorate(cls: type[Kernel]) -> type[Kernel]:
+        if not (isinstance(cls, type) and issubclass(cls, Kernel)):
+            raise TypeError(f"register_kernel needs a Kernel subclass, got {cls!r}")
+        if name in KERNELS and KERNELS[name] is not cls:
+            raise ValueError(f"kernel name {name!r} is already registered by {KERNELS[name].__name__}")
+        cls.name = name
+        KERNELS[name] = cls
+        return cls
+    return decorate
+
+
+def kernel_names() -> tuple[str, ...]:
+    """Names of the registered kernels."""
+    return tuple(KERNELS)
+
+
+def make_kernel(name: str, region_diagonal_m: float, contact_spread_m: float = 0.0) -> Kernel:
+    """The registered kernel ``name`` with its default for a workspace.
+
+    Parameters
+    ----------
+    name : str
+        One of :func:`kernel_names`.
+    region_diagonal_m : float
+        Diagonal of the box in which the GP is evaluated, metres.
+    contact_spread_m : float
+        Largest distance between observed points, metres.
+    """
+    if name not in KERNELS:
+        raise ValueError(f"unknown kernel {name!r}; choose one of {', '.join(KERNELS)} "
+                         "or pass a Kernel instance")
+    return KERNELS[name].for_workspace(region_diagonal_m, contact_spread_m)
+
+
+@register_kernel("thin_plate")
 class ThinPlateKernel(Kernel):
     """Thin-plate covariance ``phi(r) = 2 r^3 - 3 R r^2 + R^3`` (Williams and Fitzgibbon, 2007).
 
@@ -115,6 +182,13 @@ class ThinPlateKernel(Kernel):
     """
 
     sign = -1.0
+    positive_definite = True
+    grows_with_workspace = True
+
+    @classmethod
+    def for_workspace(cls, region_diagonal_m, contact_spread_m):
+        """``R`` from :func:`thin_plate_radius`."""
+        return cls(thin_plate_radius(region_diagonal_m, contact_spread_m))
 
     def __init__(self, radius_m: float):
         if not np.isfinite(radius_m) or radius_m <= 0:
@@ -135,6 +209,7 @@ class ThinPlateKernel(Kernel):
         return f"{type(self).__name__}(radius_m={self.radius_m:.4g})"
 
 
+@register_kernel("thin_plate_reference")
 class ReferenceThinPlateKernel(ThinPlateKernel):
     """The ``phi(r) = 2 r^3 + 3 R r^2 + R^3`` form used by the reference work.
 
@@ -144,8 +219,10 @@ class ReferenceThinPlateKernel(ThinPlateKernel):
     """
 
     sign = +1.0
+    positive_definite = False
 
 
+@register_kernel("squared_exponential")
 class SquaredExponentialKernel(Kernel):
     """Smooth kernel ``phi(r) = s^2 exp(-r^2 / (2 l^2))``.
 
@@ -156,6 +233,11 @@ class SquaredExponentialKernel(Kernel):
     scale : float
         Output standard deviation ``s`` (units of the implicit function).
     """
+
+    @classmethod
+    def for_workspace(cls, region_diagonal_m, contact_spread_m):
+        """Length scale a fifth of the region diagonal, unit scale."""
+        return cls(length_m=region_diagonal_m / 5, scale=1.0)
 
     def __init__(self, length_m: float, scale: float = 1.0):
         if not (np.isfinite(length_m) and length_m > 0 and np.isfinite(scale) and scale > 0):

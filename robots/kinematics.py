@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from robots.rotations import matrix_to_quat, quat_to_matrix
+from common.rotations import matrix_to_quat, quat_to_matrix
 from robots.spec import RobotSpec
 from robots.urdf_check import check_spec_against_urdf
 

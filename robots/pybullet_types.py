@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robots.rotations import matrix_to_quat, quat_to_matrix, xyzw_to_wxyz
+from common.rotations import matrix_to_quat, quat_to_matrix, xyzw_to_wxyz
 
 JOINT_TYPE_NAMES = {0: "revolute", 1: "prismatic", 2: "spherical", 3: "planar", 4: "fixed"}
 

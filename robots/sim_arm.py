@@ -20,7 +20,7 @@ from robots.pybullet_types import ContactPoint, JointInfo, JointState, LinkInert
 from robots.sim_world import SimWorld, import_pybullet
 from robots.spec import RobotSpec
 from robots.urdf_check import check_spec_against_urdf
-from sensor.pad_state import PadState
+from common.pad_state import PadState
 
 REACHED_TOLERANCE_RAD = 2e-3
 SETTLE_TIMEOUT_S = 1.0

@@ -15,7 +15,7 @@ from typing import Callable
 
 import numpy as np
 
-from robots.rotations import as_unit_quat_wxyz, wxyz_to_xyzw
+from common.rotations import as_unit_quat_wxyz, wxyz_to_xyzw
 
 DEFAULT_TIME_STEP_S = 1.0 / 480.0
 

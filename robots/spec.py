@@ -17,7 +17,7 @@ from robots.fingertip import (
     SPRING_JOINTS,
     TOOL_LINK,
 )
-from robots.rotations import as_unit_quat_wxyz
+from common.rotations import as_unit_quat_wxyz
 
 DEFAULT_PAD_LATERAL_FRICTION = 0.4
 DEFAULT_PAD_CONTACT_STIFFNESS_N_PER_M = 2.0e4

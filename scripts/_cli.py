@@ -53,13 +53,17 @@ def check_object(parser: argparse.ArgumentParser, name: str | None, option: str 
 
     if name is None or name in objects.names():
         return
+    from objects import generated
+
+    if generated.is_generated_name(name):
+        return  # parsed, and refused with its own message, by objects.in_metres
     path = Path(name)
     if path.suffix.lower() in (".obj", ".stl", ".ply", ".off", ".glb", ".gltf"):
         if not path.is_file():
             parser.error(f"{option} {name}: mesh file not found")
         return
-    parser.error(f"{option}: unknown object {name!r}; choose one of {', '.join(objects.names())} "
-                 f"or give a mesh file (.obj, .stl, .ply)")
+    parser.error(f"{option}: unknown object {name!r}; choose one of {', '.join(objects.names())}, "
+                 f"generated:FAMILY/SEED, or give a mesh file (.obj, .stl, .ply)")
 
 
 def check_robot(parser: argparse.ArgumentParser, name: str | None, option: str = "--robot") -> None:

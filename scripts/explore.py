@@ -3,6 +3,7 @@
     tactile-explore --object banana --touches 50 --out results/banana       # simulation
     tactile-explore --config rig.toml --out results/mug                     # configured rig
     tactile-explore --config rig.toml --out results/mug --resume            # go on after a stop
+    tactile-explore --object banana --touches 20 --rerun run.rrd            # also log to Rerun
 
 Without ``--config`` the object is explored in simulation on a turntable-and-tilt stand. With
 ``--config`` the robot, sensor, object and exploration settings come from the file
@@ -24,13 +25,16 @@ SUMMARY_KEYS = ("touches", "contacts", "misses", "position_rmse_mm", "normal_rms
 def main(argv: list[str] | None = None) -> int:
     import objects
     import robots
+    from explorer.rerun_view import add_rerun_argument, observer_from_argument
     from explorer.strategies import STRATEGIES
     from scripts._cli import check_gui, check_object, check_out_dir, check_robot, int_at_least
 
     parser = argparse.ArgumentParser(prog="tactile-explore", description=__doc__.splitlines()[0])
     parser.add_argument("--config", type=Path, help="rig configuration (.toml or .json); see explorer/config.py")
-    parser.add_argument("--object", help=f"registry name ({', '.join(objects.names())}) or a mesh file in "
-                                         f"metres (default banana; simulation only)")
+    parser.add_argument("--object", help=f"registry name ({', '.join(objects.names())}), generated:FAMILY/SEED "
+                                         f"or a mesh file (default banana; simulation only)")
+    parser.add_argument("--units", choices=("m", "cm", "mm", "in"), default="m",
+                        help="length unit of a mesh file given as the object (default m)")
     parser.add_argument("--robot", help=f"one of {', '.join(robots.names())} (default armar3; simulation only)")
     parser.add_argument("--strategy", choices=sorted(STRATEGIES), help="default variance")
     parser.add_argument("--touches", type=int_at_least(1), help="touch budget (default 50)")
@@ -41,6 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--resume", action="store_true",
                         help="continue the stopped run in --out from its recorded contacts")
     parser.add_argument("--gui", action="store_true", help="show the PyBullet window (simulation only)")
+    add_rerun_argument(parser)
     args = parser.parse_args(argv)
     overrides = {k: v for k, v in dict(strategy=args.strategy, touches=args.touches, seed=args.seed).items()
                  if v is not None}
@@ -52,10 +57,17 @@ def main(argv: list[str] | None = None) -> int:
         if args.gui:
             check_gui(parser)
     else:
-        for flag, value in (("--object", args.object), ("--robot", args.robot), ("--gui", args.gui or None)):
+        for flag, value in (("--object", args.object), ("--robot", args.robot), ("--gui", args.gui or None),
+                            ("--units", None if args.units == "m" else args.units)):
             if value is not None:
                 parser.error(f"{flag} does not go with --config: set it in the configuration file")
     check_out_dir(parser, args.out, resume=args.resume)
+    if args.config is None:
+        try:
+            object_name = objects.in_metres(args.object or "banana", args.units)
+        except (ValueError, FileNotFoundError) as error:
+            parser.error(str(error))
+    observer = observer_from_argument(parser, args.rerun, "tactile-explore")
 
     import torch
 
@@ -65,14 +77,14 @@ def main(argv: list[str] | None = None) -> int:
     if args.config is None:
         from explorer.run import RunSettings, explore
 
-        settings = dataclasses.replace(RunSettings(object=args.object or "banana", robot=args.robot or "armar3",
+        settings = dataclasses.replace(RunSettings(object=object_name, robot=args.robot or "armar3",
                                                    gui=args.gui), **overrides)
 
         def run(progress, status):
-            return explore(settings, args.out, progress, args.resume, status=status)
+            return explore(settings, args.out, progress, args.resume, observer, status=status)
     else:
         from explorer.config import load_config
-        from explorer.rig import open_rig, run_settings
+        from explorer.backends import open_rig, run_settings
         from explorer.run import run_on_rig
 
         try:
@@ -83,7 +95,7 @@ def main(argv: list[str] | None = None) -> int:
 
         def run(progress, status):
             with open_rig(config) as rig:
-                return run_on_rig(rig, settings, args.out, progress, args.resume, status=status)
+                return run_on_rig(rig, settings, args.out, progress, args.resume, observer, status=status)
 
     result, status = _with_progress(settings, run, args.out, args.resume)
     if result is None:

@@ -1,6 +1,6 @@
 """Evaluate the simulated arm + fingertip sensor: contact detection, normal accuracy, speed.
 
-Runs headless and seeded (see sensor.evaluation). Prints a table, or with --json one JSON object
+Runs headless and seeded (see explorer.sensor_evaluation). Prints a table, or with --json one JSON object
 with the keys detection, normal_error_deg, normal_error_mean_deg, normal_error_noiseless_mean_deg
 and speed_realtime_factor (plus supporting figures). Progress goes to stderr.
 
@@ -35,7 +35,7 @@ def _non_negative_float(text: str) -> float:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from sensor.evaluation.scene import SUPPORTED_OBJECTS
+    from explorer.sensor_evaluation.scene import SUPPORTED_OBJECTS
 
     parser = argparse.ArgumentParser(prog="tactile-sensor-eval", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -67,7 +67,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"argument --seed: must be at least 0, got {args.seed}")
     if args.out is not None:
         check_out_dir(parser, Path(args.out))
-    from sensor.evaluation import EvaluationConfig, format_table, run_evaluation, to_json_dict, write_figures
+    from explorer.sensor_evaluation import EvaluationConfig, format_table, run_evaluation, to_json_dict, write_figures
 
     try:
         config = EvaluationConfig(presses=args.presses, seed=args.seed, objects=tuple(args.objects),

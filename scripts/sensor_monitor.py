@@ -77,8 +77,9 @@ def main(argv: list[str] | None = None, *, clock: Callable[[], float] = time.mon
 
 
 def _run(args: argparse.Namespace, clock, sleep, out: TextIO) -> int:
-    from explorer.config import load_calibration, load_config, open_sensor
-    from sensor.monitor import CsvRecorder, SensorMonitor, SessionRecorder, run_monitor
+    from explorer.backends import load_calibration, open_sensor
+    from explorer.config import load_config
+    from explorer.monitor import CsvRecorder, SensorMonitor, SessionRecorder, run_monitor
 
     if not args.duration > 0.0:
         raise ValueError(f"--duration must be > 0 s, got {args.duration}")
@@ -120,7 +121,7 @@ def _emulated_sensor(args: argparse.Namespace, clock, sleep):
     from scipy.spatial.transform import Rotation
 
     from sensor.emulated_fingertip import PressScript, emulated_fingertip
-    from sensor.sim.quaternion import wxyz_from_rotation
+    from common.rotations import wxyz_from_rotation
 
     tilt = Rotation.from_rotvec(list(map(math.radians, args.emulate_tilt_deg)) + [0.0])
     script = PressScript.regular(max(20, args.presses + 2), quiet_s=args.quiet_s + 1.0,

@@ -21,16 +21,20 @@ from pathlib import Path
 
 def main(argv: list[str] | None = None) -> None:
     import objects
+    from explorer.rerun_view import add_rerun_argument, observer_from_argument
     from scripts._cli import check_gui, check_object, check_out_dir, check_robot
 
     parser = argparse.ArgumentParser(prog="tactile-teleop", description=__doc__.splitlines()[0])
     parser.add_argument("--object", required=True,
-                        help=f"registry name ({', '.join(objects.names())}) or a mesh file in metres")
+                        help=f"registry name ({', '.join(objects.names())}), generated:FAMILY/SEED or a mesh file")
+    parser.add_argument("--units", choices=("m", "cm", "mm", "in"), default="m",
+                        help="length unit of a mesh file given as the object (default m)")
     parser.add_argument("--device", default="keyboard", choices=("keyboard", "spacemouse"))
     parser.add_argument("--out", type=Path, default=Path("results/teleop"))
     parser.add_argument("--robot", default="armar3")
     parser.add_argument("--headless", action="store_true", help="no window; needs --script")
     parser.add_argument("--script", type=Path, help="JSON script of timed commands (replaces the device)")
+    add_rerun_argument(parser)
     args = parser.parse_args(argv)
     if args.headless and args.script is None:
         parser.error("--headless needs --script (nobody can steer without a window)")
@@ -49,6 +53,8 @@ def main(argv: list[str] | None = None) -> None:
         except ValueError as err:
             parser.error(str(err))
 
+    observer = observer_from_argument(parser, args.rerun, "tactile-teleop", surface_every=1)
+
     import torch
 
     from explorer.teleop.devices import KeyboardDevice, ScriptedDevice, SpaceMouseDevice
@@ -64,7 +70,9 @@ def main(argv: list[str] | None = None) -> None:
         return KeyboardDevice(context.key_events)
 
     try:
-        result = run_simulated_teleop(args.object, device, args.out, robot=args.robot, gui=not args.headless)
+        object_name = objects.in_metres(args.object, args.units)
+        result = run_simulated_teleop(object_name, device, args.out, robot=args.robot, gui=not args.headless,
+                                      observer=observer)
     except ValueError as err:
         parser.error(str(err))
     suggestion = None if result.suggestion_m is None else [round(float(v), 4) for v in result.suggestion_m]

@@ -29,8 +29,9 @@ from scipy.spatial.transform import Rotation
 
 from sensor.contact_detection import PressureContactDetector, PressureDetectorConfig
 from sensor.normal_estimation import ImuAlignment, OrientationNotSettledError, SettlingConfig, estimate_normal
+from sensor.pad_calibration import PadCalibration
 from sensor.reading import Reading
-from sensor.sim.quaternion import rotation_from_wxyz, wxyz_from_rotation
+from common.rotations import rotation_from_wxyz, wxyz_from_rotation
 
 FILE_FORMAT = "tactile-sensor-calibration"
 FILE_VERSION = 1
@@ -243,6 +244,11 @@ class SensorCalibration:
         body = IDENTITY_WXYZ if self.mounting is None else tuple(float(v) for v in self.mounting.body_in_imu_wxyz)
         return ImuAlignment(body_in_imu_wxyz=body,
                             reference_in_world_wxyz=tuple(float(v) for v in self.reference_in_world_wxyz))
+
+    def pad_calibration(self) -> PadCalibration:
+        """The :class:`sensor.pad_calibration.PadCalibration` of this sensor: the measured IMU
+        mounting, with the nominal pad force model and compliance (the file does not measure those)."""
+        return PadCalibration(alignment=self.imu_alignment())
 
     def to_dict(self) -> dict:
         baseline = self.pressure_baseline

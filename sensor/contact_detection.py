@@ -16,7 +16,7 @@ from typing import Iterable, Literal
 import numpy as np
 
 from sensor.reading import Reading
-from sensor.sim.quaternion import angle_between_rad
+from common.rotations import angle_between_rad
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ from sensor.drivers.bno055_registers import OperationMode
 from sensor.emulators.bmp280_chip import BMP280Chip
 from sensor.emulators.bno055_chip import BNO055Chip
 from sensor.emulators.fake_smbus import FakeSMBus
-from sensor.sim.quaternion import rotation_from_wxyz, wxyz_from_rotation
+from common.rotations import rotation_from_wxyz, wxyz_from_rotation
 
 GRAVITY_MPS2 = 9.80665
 BMP280_ADDRESS = 0x76

@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 from sensor.oriented_contact import OrientedContact
 from sensor.reading import Reading
 from sensor.sim.pad_response import PadResponse
-from sensor.sim.quaternion import rotation_from_wxyz, wxyz_from_rotation
+from common.rotations import rotation_from_wxyz, wxyz_from_rotation
 
 _IDENTITY_WXYZ = (1.0, 0.0, 0.0, 0.0)
 

@@ -15,7 +15,7 @@ from typing import Callable
 import numpy as np
 
 from sensor.interface import TactileSensor
-from sensor.pad_state import PadState
+from common.pad_state import PadState
 from sensor.reading import Reading
 from sensor.sim.bmp280 import BMP280Config, PressureSample, SimulatedBMP280
 from sensor.sim.bno055 import BNO055Config, ImuSample, SimulatedBNO055

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from explorer.config import (BackendConfig, RobotConfig, SensorConfig, config_from_dict, load_config, open_backends,
-                             open_sensor)
+from explorer.backends import open_backends, open_sensor
+from explorer.config import BackendConfig, RobotConfig, SensorConfig, config_from_dict, load_config
 from robots.hardware import SerialArm
 from sensor.calibration import SensorCalibration
 from sensor.drivers import CalibrationProfile, ChipIdError, HardwareTactileSensor

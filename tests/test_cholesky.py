@@ -48,3 +48,42 @@ def test_shape_mismatch_is_rejected():
         factor.append(np.zeros((2, 1)), np.eye(1))
     with pytest.raises(ValueError, match="rows"):
         factor.solve_lower(np.zeros(4))
+
+
+@pytest.mark.parametrize("start", [0, 5, 30])
+def test_a_block_larger_than_the_tail_capacity_is_appended(start):
+    K = _spd(60, seed=4)
+    factor = GrowingCholesky(K[:3, :3], tail_capacity=8)
+    factor.append(K[:3, 3:start + 3], K[3:start + 3, 3:start + 3]) if start else None
+    n = factor.n
+    rows = factor.append(K[:n, n:n + 20], K[n:n + 20, n:n + 20])  # 20 > 8
+    L = np.linalg.cholesky(K[:n + 20, :n + 20])
+    np.testing.assert_allclose(rows, L[n:], atol=1e-12)
+    np.testing.assert_allclose(factor.dense(), L, atol=1e-12)
+    factor.append(K[:n + 20, n + 20:], K[n + 20:, n + 20:])  # and it keeps growing afterwards
+    np.testing.assert_allclose(factor.dense(), np.linalg.cholesky(K), atol=1e-12)
+
+
+def test_a_failed_append_leaves_the_factor_unchanged():
+    K = _spd(10)
+    factor = GrowingCholesky(K[:6, :6], tail_capacity=2)
+    before = factor.dense()
+    bad_block = K[6:, 6:] - 1e3 * np.eye(4)
+    with pytest.raises(NotPositiveDefiniteError):
+        factor.append(K[:6, 6:], bad_block)
+    assert factor.n == 6
+    np.testing.assert_array_equal(factor.dense(), before)
+    factor.append(K[:6, 6:], K[6:, 6:])
+    np.testing.assert_allclose(factor.dense(), np.linalg.cholesky(K), atol=1e-12)
+
+
+@pytest.mark.parametrize("keep", [2, 5, 9])
+def test_truncate_undoes_appends(keep):
+    K = _spd(12, seed=2)
+    factor = GrowingCholesky(K[:4, :4], tail_capacity=3)
+    for i in range(4, 12, 2):
+        factor.append(K[:i, i:i + 2], K[i:i + 2, i:i + 2])
+    factor.truncate(keep)
+    np.testing.assert_allclose(factor.dense(), np.linalg.cholesky(K[:keep, :keep]), atol=1e-12)
+    factor.append(K[:keep, keep:], K[keep:, keep:])
+    np.testing.assert_allclose(factor.dense(), np.linalg.cholesky(K), atol=1e-12)

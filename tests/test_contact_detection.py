@@ -6,7 +6,7 @@ import pytest
 
 from sensor.contact_detection import (AccelerationSpikeDetector, OrientationChangeDetector, PressureContactDetector,
                                       PressureDetectorConfig)
-from sensor.pad_state import PadState
+from common.pad_state import PadState
 from sensor.reading import Reading
 from sensor.sim.bmp280 import BMP280Config, SimulatedBMP280
 

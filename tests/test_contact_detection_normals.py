@@ -10,11 +10,11 @@ from sensor.contact_detection import PressureContactDetector
 from sensor.normal_estimation import (ImuAlignment, OrientationNotSettledError, average_quaternion,
                                       estimate_normal, face_normal_world, oriented_contact)
 from sensor.oriented_contact import OrientedContact
-from sensor.pad_state import PadState
+from common.pad_state import PadState
 from sensor.reading import Reading
 from sensor.sim.bno055 import BNO055Config, BNO055Noise
 from sensor.sim.pad_response import PadResponse
-from sensor.sim.quaternion import rotation_from_wxyz, wxyz_from_rotation
+from common.rotations import rotation_from_wxyz, wxyz_from_rotation
 from sensor.sim_sensor import SimulatedSensorConfig, SimulatedTactileSensor
 
 BASELINE = 101325.0

@@ -4,7 +4,7 @@ import struct
 
 import pytest
 
-from sensor.drivers import (BMP280, BMP280Calibration, BMP280Config, BusError, ChipIdError,
+from sensor.drivers import (BMP280, BMP280Calibration, BMP280RegisterSettings, BusError, ChipIdError,
                             DeviceTimeoutError, IIRFilter, Oversampling, PowerMode, Standby)
 from sensor.drivers.bmp280_compensation import (DATASHEET_EXAMPLE_CALIBRATION,
                                                 compensate_pressure, compensate_temperature)
@@ -63,11 +63,11 @@ def test_bad_calibration_bytes_are_rejected(raw, problem):
 # -- configuration ------------------------------------------------------------------------------
 
 def test_register_values_follow_the_datasheet_bit_layout():
-    config = BMP280Config(Oversampling.X16, Oversampling.X2, IIRFilter.X16, Standby.MS_0_5,
+    config = BMP280RegisterSettings(Oversampling.X16, Oversampling.X2, IIRFilter.X16, Standby.MS_0_5,
                           PowerMode.NORMAL)
     assert config.ctrl_meas() == 0b010_101_11  # osrs_t x2, osrs_p x16, normal
     assert config.config_register() == 0b000_100_00  # t_sb 0.5 ms, filter 16
-    forced = BMP280Config(Oversampling.X1, Oversampling.X1, IIRFilter.OFF, Standby.MS_4000,
+    forced = BMP280RegisterSettings(Oversampling.X1, Oversampling.X1, IIRFilter.OFF, Standby.MS_4000,
                           PowerMode.FORCED)
     assert forced.ctrl_meas() == 0b001_001_01
     assert forced.config_register() == 0b111_000_00
@@ -80,7 +80,7 @@ def test_register_values_follow_the_datasheet_bit_layout():
     (Oversampling.X2, Oversampling.X1, Standby.MS_0_5, 125.0),  # drop detection
 ])
 def test_output_data_rate_matches_datasheet_table_7(pressure, temperature, standby, rate_hz):
-    config = BMP280Config(pressure, temperature, standby=standby)
+    config = BMP280RegisterSettings(pressure, temperature, standby=standby)
     assert config.output_data_rate_hz() == pytest.approx(rate_hz, abs=0.05)
 
 
@@ -89,7 +89,7 @@ def test_output_data_rate_matches_datasheet_table_7(pressure, temperature, stand
     (Oversampling.X4, Oversampling.X1, 13.3), (Oversampling.X8, Oversampling.X1, 22.5),
     (Oversampling.X16, Oversampling.X2, 43.2)])
 def test_maximum_measurement_time_matches_datasheet_table_13(pressure, temperature, max_ms):
-    config = BMP280Config(pressure, temperature)
+    config = BMP280RegisterSettings(pressure, temperature)
     assert config.measurement_time_s() * 1e3 == pytest.approx(max_ms, abs=0.05)
 
 
@@ -100,7 +100,7 @@ def test_maximum_measurement_time_matches_datasheet_table_13(pressure, temperatu
 ])
 def test_invalid_configuration_is_a_value_error(options, problem):
     with pytest.raises(ValueError, match=problem):
-        BMP280Config(**options)
+        BMP280RegisterSettings(**options)
 
 
 # -- against the emulated chip -------------------------------------------------------------------
@@ -108,7 +108,7 @@ def test_invalid_configuration_is_a_value_error(options, problem):
 @pytest.mark.parametrize("oversampling, tolerance_pa", [(Oversampling.X1, 2.7), (Oversampling.X16, 0.2)])
 def test_reads_true_pressure_and_temperature_within_the_resolution(oversampling, tolerance_pa):
     chip = BMP280Chip(pressure_pa=99_876.5, temperature_c=31.7)
-    barometer, *_ = make_barometer(chip, config=BMP280Config(pressure_oversampling=oversampling))
+    barometer, *_ = make_barometer(chip, config=BMP280RegisterSettings(pressure_oversampling=oversampling))
     for true_pa in (95_000.0, 99_876.5, 104_321.0):
         chip.pressure_pa = true_pa
         pressure_pa, temperature_c = barometer.read()
@@ -118,7 +118,7 @@ def test_reads_true_pressure_and_temperature_within_the_resolution(oversampling,
 
 def test_initialisation_resets_waits_for_nvm_copy_and_writes_configuration():
     chip = BMP280Chip(busy_reads=3)
-    config = BMP280Config(Oversampling.X8, Oversampling.X2, IIRFilter.X4, Standby.MS_62_5)
+    config = BMP280RegisterSettings(Oversampling.X8, Oversampling.X2, IIRFilter.X4, Standby.MS_62_5)
     barometer, chip, bus, _ = make_barometer(chip, config=config)
     writes = [entry for entry in bus.log if entry[0] == "write"]
     assert writes[0][2] == 0xE0  # soft reset first
@@ -138,7 +138,7 @@ def test_data_is_read_in_one_burst_of_six_bytes():
 
 
 def test_forced_mode_triggers_a_conversion_and_waits_for_it():
-    barometer, chip, bus, clock = make_barometer(config=BMP280Config(mode=PowerMode.FORCED))
+    barometer, chip, bus, clock = make_barometer(config=BMP280RegisterSettings(mode=PowerMode.FORCED))
     chip.pressure_pa = 97_000.0
     before_s, conversions = clock.now, chip.conversions
     pressure_pa, _ = barometer.read()
@@ -149,7 +149,7 @@ def test_forced_mode_triggers_a_conversion_and_waits_for_it():
 
 
 def test_sleep_mode_without_conversion_is_a_timeout_naming_the_data_register():
-    barometer, *_ = make_barometer(config=BMP280Config(mode=PowerMode.SLEEP))
+    barometer, *_ = make_barometer(config=BMP280RegisterSettings(mode=PowerMode.SLEEP))
     with pytest.raises(DeviceTimeoutError, match=r"0xF7.*0x80000"):
         barometer.read()
 

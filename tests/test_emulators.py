@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 
-from sensor.drivers import BMP280, BMP280Config, IIRFilter, Oversampling
+from sensor.drivers import BMP280, BMP280RegisterSettings, IIRFilter, Oversampling
 from sensor.drivers.bmp280_compensation import DATASHEET_EXAMPLE_CALIBRATION as EXAMPLE
 from sensor.emulators import (BMP280Chip, BNO055Chip, FakeBNO055Serial, FakeClock, FakeSMBus,
                               Fault, FaultInjector, register_serial_url_handlers)
@@ -81,7 +81,7 @@ def test_iir_step_response_matches_datasheet_table_6(iir, samples_to_75_percent)
     chip = BMP280Chip(pressure_pa=100_000.0)
     clock = FakeClock()
     barometer = BMP280(FakeSMBus({0x76: chip}), sleep=clock.sleep, clock=clock.monotonic,
-                       config=BMP280Config(Oversampling.X16, Oversampling.X2, iir_filter=iir))
+                       config=BMP280RegisterSettings(Oversampling.X16, Oversampling.X2, iir_filter=iir))
     before = barometer.read()[0]
     chip.pressure_pa = 102_000.0
     fractions = [(barometer.read()[0] - before) / 2000.0 for _ in range(30)]

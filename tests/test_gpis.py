@@ -262,3 +262,108 @@ def test_quadratic_trend_covariance_is_consistent_with_its_features():
     cov = trend.joint_covariance(x, x)
     np.testing.assert_allclose(cov[:, 0, :, 0], 4.0 * np.outer(feats[:, 0], feats[:, 0]))
     np.testing.assert_allclose(np.diagonal(cov[:, 0, :, 0]), trend.variance(x))
+
+
+def _free_space_points(n, seed):
+    """(n, 3) points outside the 5 cm sphere, inside BOUNDS, with f = -(distance to the sphere)."""
+    v = random_directions(n, seed)
+    radii = np.random.default_rng(seed + 1).uniform(0.055, 0.075, n)
+    return v * radii[:, None], RADIUS - radii
+
+
+def test_add_values_accepts_a_block_larger_than_the_spare_capacity():
+    """Issue 10: 1,000 values at once after 200 contacts with normals (800 rows, tail of 512)."""
+    points, normals = sphere_contacts(200, seed=5)
+    free, values = _free_space_points(1000, seed=6)
+    gp = GPIS(bounds=BOUNDS).fit(points, normals)
+    candidates = 0.07 * random_directions(300, 9)
+    tracker = gp.variance_tracker(candidates)
+    tracker.variance()
+    gp.add_values(free, values, noise=2e-3)
+    chunked = GPIS(bounds=BOUNDS).fit(points, normals)
+    for s in range(0, 1000, 100):
+        chunked.add_values(free[s:s + 100], values[s:s + 100], noise=2e-3)
+    refit = GPIS(bounds=BOUNDS).fit(points, normals).add_values(free[:1], values[:1], noise=2e-3)
+    refit.add_values(free[1:], values[1:], noise=2e-3)
+    refit._factor_all()  # one dense factorisation of all rows: the refit answer
+    x = 0.07 * np.random.default_rng(7).uniform(-1, 1, (300, 3))
+    for other in (chunked, refit):
+        np.testing.assert_allclose(gp.mean(x), other.mean(x), atol=2e-6)
+        np.testing.assert_allclose(gp.variance(x), other.variance(x), rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(tracker.variance(), refit.variance(candidates), rtol=1e-6, atol=1e-12)
+
+
+@pytest.mark.parametrize("failure", ["factor", "bookkeeping"])
+def test_a_failed_add_values_leaves_the_gpis_unchanged(failure, monkeypatch):
+    import reconstruction.cholesky as cholesky
+
+    points, normals = sphere_contacts(60, seed=5)
+    free, values = _free_space_points(700, seed=6)
+    gp = GPIS(bounds=BOUNDS, noise=1e-3).fit(points, normals)
+    gp.add_values(free[:50], values[:50])  # rows in the factor's tail, so a rollback must cut it
+    x = 0.07 * np.random.default_rng(7).uniform(-1, 1, (100, 3))
+    mean, variance, rows = gp.mean(x), gp.variance(x), gp.n_rows
+    with monkeypatch.context() as patch:
+        if failure == "factor":
+            def not_pd(matrix):
+                raise cholesky.NotPositiveDefiniteError("injected")
+            patch.setattr(cholesky, "_cholesky", not_pd)
+            error = cholesky.NotPositiveDefiniteError
+        else:  # the factor grew, then the bookkeeping after it failed
+            def broken(*args, **kwargs):
+                raise MemoryError("injected")
+            patch.setattr(gp, "_stage", broken)
+            error = MemoryError
+        with pytest.raises(error):
+            gp.add_values(free[50:], values[50:])
+    assert gp.n_rows == rows
+    np.testing.assert_array_equal(gp.mean(x), mean)
+    np.testing.assert_allclose(gp.variance(x), variance, rtol=1e-12, atol=1e-15)
+    gp.add_values(free[50:], values[50:])  # still usable, and equal to a clean build
+    clean = GPIS(bounds=BOUNDS, noise=1e-3).fit(points, normals)
+    clean.add_values(free[:50], values[:50]).add_values(free[50:], values[50:])
+    np.testing.assert_allclose(gp.mean(x), clean.mean(x), atol=2e-6)
+
+
+def test_the_kernel_declares_how_the_system_is_solved():
+    """A kernel instance declaring itself indefinite is solved by LU (refit per add) and has no
+    variance tracker; the answers equal the Cholesky path's for the same (in fact definite) kernel."""
+    from reconstruction.kernels import ThinPlateKernel
+
+    class DeclaredIndefinite(ThinPlateKernel):
+        positive_definite = False
+
+    points, normals = sphere_contacts(40, seed=2)
+    radius = float(np.linalg.norm(np.subtract(*BOUNDS)))
+    lu = GPIS(kernel=DeclaredIndefinite(radius), bounds=BOUNDS).fit(points[:30], normals[:30])
+    chol = GPIS(kernel=ThinPlateKernel(radius), bounds=BOUNDS).fit(points[:30], normals[:30])
+    for p, n in zip(points[30:], normals[30:]):
+        lu.add(p, n)
+        chol.add(p, n)
+    assert not lu.positive_definite and chol.positive_definite
+    x = 0.07 * np.random.default_rng(7).uniform(-1, 1, (100, 3))
+    np.testing.assert_allclose(lu.mean(x), chol.mean(x), atol=2e-6)
+    np.testing.assert_allclose(lu.variance(x), chol.variance(x), rtol=1e-6, atol=1e-12)
+    with pytest.raises(ValueError, match="positive definite"):
+        lu.variance_tracker(x)
+    with pytest.raises(RuntimeError, match="not positive definite"):
+        lu.whiten(np.zeros(lu.n_rows))
+
+
+def test_factor_surface_for_trackers_is_consistent():
+    """whiten / factor_rows / cross_covariance(start, stop) against a dense factorisation."""
+    points, normals = sphere_contacts(30, seed=4)
+    gp = GPIS(bounds=BOUNDS).fit(points[:20], normals[:20])
+    generation = gp.generation
+    gp.add(points[20:], normals[20:])
+    assert gp.generation == generation  # an incremental add is not a refit
+    x = 0.07 * random_directions(50, 3)
+    k = gp.cross_covariance(x)
+    np.testing.assert_allclose(gp.cross_covariance(x, 8, 90), k[8:90])
+    L = gp.factor_rows(0, gp.n_rows)
+    np.testing.assert_allclose(L @ gp.whiten(k), k, atol=1e-10 * np.abs(k).max())
+    np.testing.assert_allclose(gp.factor_rows(40, 100), L[40:100, :100])
+    prior = gp.prior_variance(x) - np.einsum("ij,ij->j", gp.whiten(k), gp.whiten(k))
+    np.testing.assert_allclose(prior, gp.variance(x), rtol=1e-9, atol=1e-15)
+    gp.fit(points, normals)
+    assert gp.generation == generation + 1

@@ -12,7 +12,7 @@ from robots.fingertip import FingertipGeometry
 import robots
 from robots.kinematics import ArmKinematics
 from robots.pybullet_types import JointInfo, LinkState
-from robots.rotations import matrix_to_quat, quat_to_matrix, rotation_angle_between
+from common.rotations import matrix_to_quat, quat_to_matrix, rotation_angle_between
 
 # an arbitrary base pose, so that the base transform is exercised too
 BASE_POSITION = (0.3, -0.1, 0.05)

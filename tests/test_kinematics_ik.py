@@ -10,7 +10,7 @@ import torch
 import robots
 from robots.ik import IKOptions, PadIK, approach_frames, solve_pad_ik
 from robots.kinematics import ArmKinematics
-from robots.rotations import angle_between_vectors
+from common.rotations import angle_between_vectors
 
 
 @pytest.fixture(scope="module", params=["armar3", "armar6"])

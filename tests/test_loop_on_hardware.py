@@ -14,14 +14,15 @@ from explorer.loop import ExplorationLoop, LoopConfig
 from explorer.planner import ApproachPlanner, PlannerConfig
 from explorer.positioner import FixedStand
 from explorer.recording import RunRecorder, read_contacts_csv
+from explorer.rig import Rig
 from explorer.strategies import make_strategy
 from explorer.touch import ObjectPrior
 from reconstruction.gpis import GPIS
-from robots.emulators.contact_world import VirtualSphere, aligned_rotation, emulated_rig
+from explorer.contact_world import VirtualSphere, aligned_rotation, emulated_rig
 from robots.ik import PadIK
 from robots.kinematics import ArmKinematics
 from sensor.sim.pad_response import PadResponse
-from sensor.sim.quaternion import rotation_from_wxyz
+from common.rotations import rotation_from_wxyz
 
 RADIUS_M = 0.05
 AMBIENT_PA = 100_900.0
@@ -124,8 +125,8 @@ def test_exploration_loop_on_the_hardware_backend_touches_the_virtual_sphere(spe
                     object=f"virtual sphere r = {RADIUS_M * 1e3:.0f} mm", seed=0, backend="hardware emulators")
     recorder = RunRecorder(tmp_path, metadata)
     with rig.arm, rig.sensor:
-        loop = ExplorationLoop(rig.arm, rig.sensor, kinematics, planner, stand, make_strategy("variance"),
-                               prior, gpis, LoopConfig(touches=5), recorder)
+        loop = ExplorationLoop(Rig(rig.arm, rig.sensor, kinematics, stand, prior, None, metadata), planner,
+                               make_strategy("variance"), gpis, LoopConfig(touches=5), recorder)
         records = loop.run()
     mesh = gpis.mesh(resolution=24)
     recorder.reconstruction(mesh, gpis.n_contacts, rig.clock.monotonic())
@@ -158,8 +159,6 @@ def test_exploration_loop_on_the_hardware_backend_touches_the_virtual_sphere(spe
 # ---- a device that fails mid-run, and the resumed run ------------------------------------------
 
 def _rig_for_run(spec, kinematics, sphere_centre):
-    from explorer.run import Rig
-
     emulated = emulated_rig(spec, VirtualSphere(sphere_centre, RADIUS_M), kinematics=kinematics)
     prior = ObjectPrior(np.zeros(3), np.full(3, 0.06))
     rig = Rig(emulated.arm, emulated.sensor, kinematics, FixedStand(sphere_centre), prior, None,
@@ -235,9 +234,10 @@ def test_a_device_failing_mid_run_stops_the_arm_keeps_the_records_and_the_run_re
 
 def test_the_calibrated_imu_mounting_is_applied_to_the_measured_normals(spec, kinematics, tmp_path, one_torch_thread):
     """An IMU mounted 12 deg off: normals are 12 deg off without its calibration and right with it."""
-    from explorer.run import Rig, RunSettings, run_on_rig
+    from explorer.run import RunSettings, run_on_rig
     from sensor.normal_estimation import ImuAlignment
-    from sensor.sim.quaternion import wxyz_from_rotation
+    from sensor.pad_calibration import PadCalibration
+    from common.rotations import wxyz_from_rotation
 
     mounting = wxyz_from_rotation(Rotation.from_euler("x", 12.0, degrees=True))
     centre = np.asarray(spec.workspace_center_m, dtype=float)
@@ -247,7 +247,8 @@ def test_the_calibrated_imu_mounting_is_applied_to_the_measured_normals(spec, ki
         emulated = emulated_rig(spec, VirtualSphere(centre, RADIUS_M), kinematics=kinematics,
                                 body_in_imu_wxyz=mounting)
         rig = Rig(emulated.arm, emulated.sensor, kinematics, FixedStand(centre), ObjectPrior(np.zeros(3), np.full(3, 0.06)),
-                  None, dict(robot=spec.name, sensor="emulated", object="sphere", backend="emulators"), alignment)
+                  None, dict(robot=spec.name, sensor="emulated", object="sphere", backend="emulators"),
+                  PadCalibration(alignment=alignment or ImuAlignment()))
         with emulated.arm, emulated.sensor:
             result = run_on_rig(rig, settings, tmp_path / name)
         contacts = [r for r in result.records if r.kind in ("contact", "realign")]

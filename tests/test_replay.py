@@ -135,3 +135,25 @@ def test_the_gpis_settings_are_applied(session, recorded_replay):
     for other in (squared, without):
         np.testing.assert_array_equal(other.points_m, recorded_replay.points_m)
         assert np.max(np.abs(other.gpis.mean(samples) - recorded_replay.gpis.mean(samples))) > 1e-3
+
+
+def test_replay_with_the_recorded_settings_keeps_the_realign_repeats_the_loop_kept(tmp_path):
+    """A strict realign rule sets most first contacts aside; the repeats (strategy ``realign``) are
+    kept by the loop whatever their angle, and replay applies the rule as the loop did."""
+    from explorer.loop import LoopConfig
+
+    run = explore(RunSettings(object="sphere", touches=4, eval_every=0, mesh_resolution=24,
+                              loop=LoopConfig(realign_angle_rad=float(np.radians(0.5)))), tmp_path)
+    kinds = [r.kind for r in run.records]
+    assert "realign" in kinds, kinds
+    result = SessionReplay(run.out_dir).run(ReplaySettings(figures=False))
+    assert [t.kind for t in result.touches] == kinds
+    assert result.notes == []
+    np.testing.assert_array_equal(result.points_m, read_contacts_csv(run.out_dir / "contacts.csv")[0])
+
+
+def test_a_difference_from_the_recording_is_a_note(session):
+    pressure = session.readings.pressure_pa
+    result = session.run(ReplaySettings(start_threshold_pa=float(pressure.max() - pressure.min()) + 1.0,
+                                        end_threshold_pa=1.0, figures=False))
+    assert sum("recorded contact, replayed miss" in note for note in result.notes) == result.metrics["recorded_contacts"]

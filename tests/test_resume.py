@@ -15,7 +15,8 @@ from explorer.positioner import FixedStand
 from explorer.recording import read_contacts_csv
 from explorer.resume import (check_resumable, load_recorded_run, resume_time_offset,
                              rewrite_contacts_csv)
-from explorer.run import RunSettings, explore, object_prior
+from explorer.rig import Rig, object_prior
+from explorer.run import RunSettings, explore
 from explorer.session import read_session
 from explorer.strategies import make_strategy
 from reconstruction.gpis import GPIS
@@ -34,9 +35,9 @@ def stopped_run(tmp_path_factory):
 def _restored_loop(recorded, settings: RunSettings, prior):
     """A fresh loop (no devices: restore() needs none) restored from ``recorded``."""
     gpis = GPIS(bounds=prior.bounds(), use_normals=settings.use_normals)
-    loop = ExplorationLoop(None, None, None, SimpleNamespace(config=PlannerConfig()), FixedStand(np.zeros(3)),
-                           make_strategy(settings.strategy, settings.seed), prior, gpis,
-                           LoopConfig(touches=settings.touches))
+    rig = Rig(None, None, None, FixedStand(np.zeros(3)), prior, None, {})
+    loop = ExplorationLoop(rig, SimpleNamespace(config=PlannerConfig()), make_strategy(settings.strategy, settings.seed),
+                           gpis, LoopConfig(touches=settings.touches))
     loop.restore(recorded.touches)
     return loop
 
@@ -68,8 +69,8 @@ def test_restore_refuses_a_used_loop_and_misnumbered_touches(stopped_run):
         loop.restore(recorded.touches)
     shuffled = list(reversed(recorded.touches))
     gpis = GPIS(bounds=prior.bounds())
-    fresh = ExplorationLoop(None, None, None, SimpleNamespace(config=PlannerConfig()), FixedStand(np.zeros(3)),
-                            make_strategy("variance"), prior, gpis)
+    fresh = ExplorationLoop(Rig(None, None, None, FixedStand(np.zeros(3)), prior, None, {}),
+                            SimpleNamespace(config=PlannerConfig()), make_strategy("variance"), gpis)
     with pytest.raises(ValueError, match="numbered"):
         fresh.restore(shuffled)
 

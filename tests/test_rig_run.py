@@ -9,7 +9,7 @@ import pytest
 
 from explorer.config import config_from_dict
 from explorer.recording import read_contacts_csv
-from explorer.rig import open_rig, run_settings
+from explorer.backends import open_rig, run_settings
 from explorer.run import run_on_rig
 from explorer.session import read_session
 from scripts.explore import main as explore_main

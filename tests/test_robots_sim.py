@@ -11,11 +11,11 @@ import robots
 from robots.ik import solve_pad_ik
 from robots.interface import GuardedMoveResult, Robot
 from robots.kinematics import ArmKinematics
-from robots.rotations import angle_between_vectors, matrix_to_quat, quat_to_matrix
+from common.rotations import angle_between_vectors, matrix_to_quat, quat_to_matrix
 from robots.sim_arm import EncoderModel, MoveNotReachedError, SimArm
 from robots.sim_world import ObjectHandle, SimWorld
 from robots.urdf_model import Box, Link, RobotModel, Shape, to_urdf
-from sensor.pad_state import PadState
+from common.pad_state import PadState
 
 BOX_SIZE = (0.2, 0.2, 0.1)
 

@@ -15,7 +15,7 @@ from sensor.emulated_fingertip import PressScript, emulated_fingertip
 from sensor.emulators import FakeClock
 from sensor.normal_estimation import ImuAlignment
 from sensor.reading import Reading
-from sensor.sim.quaternion import rotation_from_wxyz, wxyz_from_rotation
+from common.rotations import rotation_from_wxyz, wxyz_from_rotation
 
 FLAT = Rotation.from_rotvec([math.pi, 0.0, 0.0])  # body +z down: pressed on a table
 

@@ -12,17 +12,17 @@ from scipy.spatial.transform import Rotation
 import objects
 from scripts.sensor_eval import main
 from sensor.contact_detection import OrientationChangeDetector, PressureContactDetector
-from sensor.evaluation import EvaluationConfig, TrialRecording, score_detectors, sensor_variants, summarize
-from sensor.evaluation.detection import contact_intervals, match_starts
-from sensor.evaluation.normal_accuracy import NormalTrial, angle_deg
-from sensor.evaluation.rig import ApproachLine
-from sensor.evaluation.scene import (TouchSite, check_object_name, free_gap_m, pose_for_contact, random_touch_site,
+from explorer.sensor_evaluation import EvaluationConfig, TrialRecording, score_detectors, sensor_variants, summarize
+from explorer.sensor_evaluation.detection import contact_intervals, match_starts
+from explorer.sensor_evaluation.normal_accuracy import NormalTrial, angle_deg
+from explorer.sensor_evaluation.press_rig import ApproachLine
+from explorer.sensor_evaluation.scene import (TouchSite, check_object_name, free_gap_m, pose_for_contact, random_touch_site,
                                      tilted_normal)
 from sensor.normal_estimation import estimate_normal
-from sensor.pad_state import PadState
+from common.pad_state import PadState
 from sensor.reading import Reading
 from sensor.sim.bno055 import BNO055Config, BNO055Noise, SimulatedBNO055
-from sensor.sim.quaternion import wxyz_from_rotation
+from common.rotations import wxyz_from_rotation
 from sensor.sim_sensor import SimulatedTactileSensor
 
 G = 9.80665

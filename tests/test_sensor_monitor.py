@@ -16,10 +16,10 @@ from sensor.calibration import SensorCalibration
 from sensor.emulated_fingertip import PressScript, emulated_fingertip
 from sensor.emulators import FakeClock
 from sensor.interface import TactileSensor
-from sensor.monitor import CSV_COLUMNS, CsvRecorder, SensorMonitor, SessionRecorder, format_sample, run_monitor
+from explorer.monitor import CSV_COLUMNS, CsvRecorder, SensorMonitor, SessionRecorder, format_sample, run_monitor
 from sensor.normal_estimation import ImuAlignment
 from sensor.reading import Reading
-from sensor.sim.quaternion import rotation_from_wxyz, wxyz_from_rotation
+from common.rotations import rotation_from_wxyz, wxyz_from_rotation
 
 MOUNTING = Rotation.from_rotvec(np.radians([1.5, -2.0, 0.0]))
 

@@ -5,7 +5,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from sensor.pad_state import PadState
+from common.pad_state import PadState
 from sensor.sim.bmp280 import BMP280Config, BMP280Noise, SimulatedBMP280
 from sensor.sim.pad_response import PadResponse
 

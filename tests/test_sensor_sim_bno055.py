@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from sensor.pad_state import PadState
+from common.pad_state import PadState
 from sensor.sim.bno055 import BNO055Config, BNO055Noise, SimulatedBNO055
-from sensor.sim.quaternion import rotation_from_wxyz
+from common.rotations import rotation_from_wxyz
 
 G = 9.80665
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from sensor.contact_detection import PressureContactDetector
-from sensor.pad_state import PadState
+from common.pad_state import PadState
 from sensor.sim_sensor import NoReadingError, SensorNotOpenError, SimulatedSensorConfig, SimulatedTactileSensor
 
 DT = 1.0 / 240.0

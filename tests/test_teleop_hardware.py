@@ -6,10 +6,11 @@ import pytest
 
 import robots
 from explorer.positioner import FixedStand
+from explorer.rig import Rig
 from explorer.teleop.devices import InputDevice, TeleopCommand
-from explorer.teleop.session import TeleopConfig, TeleopSession
+from explorer.teleop.controller import TeleopConfig, TeleopController
 from explorer.touch import ObjectPrior
-from robots.emulators.contact_world import VirtualSphere, emulated_rig
+from explorer.contact_world import VirtualSphere, emulated_rig
 from robots.hardware.compliant import CompliantArm, CompliantModeError
 from robots.ik import PadIK
 
@@ -69,8 +70,9 @@ def test_hand_guided_touches_are_recorded_without_commanding_the_arm():
         with pytest.raises(CompliantModeError):
             compliant.move_joints(spec.home_q)
         commands_before = rig.controller.commands.get("SETQ", 0)
-        session = TeleopSession(compliant, sensor, kinematics, FixedStand(centre),
-                                ObjectPrior(np.zeros(3), np.full(3, 0.06)), config=TeleopConfig())
+        teleop_rig = Rig(compliant, sensor, kinematics, FixedStand(centre),
+                         ObjectPrior(np.zeros(3), np.full(3, 0.06)), None, {})
+        session = TeleopController(teleop_rig, config=TeleopConfig())
         with HandsOff() as device:
             contacts = session.run(device, max_duration_s=t)
         assert rig.controller.commands.get("SETQ", 0) == commands_before  # never commanded

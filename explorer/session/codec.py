@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from explorer.session.errors import SessionFormatError
-from explorer.session.plain_json import to_plain
+from common.plain_json import to_plain
 from explorer.session.records import Event
 from sensor.oriented_contact import OrientedContact
 from sensor.reading import Reading

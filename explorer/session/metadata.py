@@ -10,7 +10,7 @@ from pathlib import Path
 from explorer.session.errors import SessionFormatError
 from explorer.session.layout import FORMAT_NAME, FORMAT_VERSION, METADATA_FILE
 from explorer.session.line_files import write_atomically
-from explorer.session.plain_json import to_plain
+from common.plain_json import to_plain
 
 REQUIRED_KEYS = ("robot", "sensor", "object", "seed")
 """Keys the caller's metadata must hold (``seed`` may be None, e.g. for a teleoperated run)."""

@@ -76,10 +76,6 @@ class Readings:
     def __iter__(self) -> Iterator[Reading]:
         return (self[i] for i in range(len(self)))
 
-    def to_list(self) -> list[Reading]:
-        """Every reading as a :class:`~sensor.reading.Reading`, oldest first."""
-        return list(self)
-
 
 @dataclass(frozen=True, eq=False)
 class JointStates:

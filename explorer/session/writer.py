@@ -39,7 +39,7 @@ from explorer.session.metadata import (
     save_metadata,
     utc_now,
 )
-from explorer.session.plain_json import dumps_line
+from common.plain_json import dumps_line
 from explorer.session.ply import mesh_arrays, write_ply
 from explorer.session.reader import SessionReader
 from explorer.session.records import ReconstructionSnapshot

@@ -8,20 +8,20 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Callable
 
 import numpy as np
 
 from explorer.evaluation import jsonable
-from explorer.loop import LOOP_SETTLING
+from explorer.contact import LOOP_SETTLING
 from explorer.recording import RunRecorder
-from explorer.run import object_prior
+from explorer.rig import Rig, object_prior
 from explorer.simulation import build_scene
 from explorer.teleop.devices import InputDevice
-from explorer.teleop.session import TeleopConfig, TeleopContact, TeleopSession
+from explorer.teleop.controller import TeleopConfig, TeleopContact, TeleopController
 from reconstruction.gpis import GPIS
 from sensor.contact_detection import PressureContactDetector, PressureDetectorConfig
-from sensor.normal_estimation import SettlingConfig
 
 #: The arm starts with the pad this far outside the object's prior box ...
 READY_CLEARANCE_M = 0.02
@@ -69,11 +69,12 @@ class TeleopResult:
 def run_simulated_teleop(object_name: str, device_factory: Callable[[DeviceContext], InputDevice],
                          out_dir: Path, robot: str = "armar3", gui: bool = True,
                          config: TeleopConfig = TeleopConfig(), max_duration_s: float | None = None,
-                         seed: int = 0) -> TeleopResult:
+                         seed: int = 0, observer=None) -> TeleopResult:
     """Teleoperate the simulated arm on ``object_name``; write the session and outputs to ``out_dir``.
 
     Outputs: ``session/``, ``contacts.csv`` (object frame), ``reconstruction.ply`` and
-    ``teleop.json`` (contacts, suggested next touch) once there are contacts.
+    ``teleop.json`` (contacts, suggested next touch) once there are contacts. ``observer``
+    (:class:`explorer.observer.RunObserver`) is shown the session as it is recorded.
     """
     from robots.ik import PadIK
 
@@ -93,18 +94,22 @@ def run_simulated_teleop(object_name: str, device_factory: Callable[[DeviceConte
         pad = scene.kinematics.forward_kinematics(scene.arm.joint_positions())
         context = DeviceContext(scene.arm.time_s, key_events, pad.position_m, pad.z_axis,
                                 np.asarray(scene.stand.centre_m, float))
-        detector_config, settling = PressureDetectorConfig(), SettlingConfig(**LOOP_SETTLING)
+        detector_config, settling = PressureDetectorConfig(), LOOP_SETTLING
         # what tactile-reconstruct needs to detect the contacts again (explorer/replay.py)
         configuration = dict(mode="teleop", teleop=asdict(config), detector=asdict(detector_config),
-                             settling=asdict(settling), stand_centre_m=scene.stand.centre_m,
+                             settling=asdict(settling), pad=scene.pad.as_dict(), stand_centre_m=scene.stand.centre_m,
                              prior=dict(centre_m=prior.centre_m, half_extent_m=prior.half_extent_m))
         metadata = dict(robot=robot, sensor="simulated BNO055 + BMP280 under polyurethane", object=object_name,
                         seed=None, backend="simulation", configuration=jsonable(configuration))
-        recorder = RunRecorder(out_dir, metadata)
+        recorder = RunRecorder(out_dir, metadata, observer=observer)
         drawer = _DebugDrawer(pb, scene.world.client) if gui else None
-        session = TeleopSession(scene.arm, scene.sensor, scene.kinematics, scene.stand, prior, recorder,
-                                config, on_update=drawer.draw if drawer else None,
+        rig = Rig(scene.arm, scene.sensor, scene.kinematics, scene.stand, prior, scene.object_model.mesh,
+                  metadata, scene.pad)
+        session = TeleopController(rig, recorder, config, on_update=drawer.draw if drawer else None,
                                 detector=PressureContactDetector(detector_config), settling=settling)
+        if observer is not None:
+            observer.run_started(SimpleNamespace(kinematics=scene.kinematics, positioner=scene.stand,
+                                                 reference=scene.object_model.mesh), session.gpis, metadata)
         error = None
         try:
             with device_factory(context) as device:
@@ -117,7 +122,7 @@ def run_simulated_teleop(object_name: str, device_factory: Callable[[DeviceConte
     return TeleopResult(session.contacts, session.suggestion_m, mesh, out_dir, session.gpis)
 
 
-def _finish(session: TeleopSession, recorder: RunRecorder, out_dir: Path, error) -> object:
+def _finish(session: TeleopController, recorder: RunRecorder, out_dir: Path, error) -> object:
     mesh = None
     if session.gpis.n_contacts:
         mesh = session.snapshot()
@@ -147,7 +152,7 @@ class _DebugDrawer:
         self._client = client
         self._suggestion: list[int] = []
 
-    def draw(self, session: TeleopSession) -> None:
+    def draw(self, session: TeleopController) -> None:
         pb, client = self._pb, self._client
         latest = session.contacts[-1]
         p, n = session.to_world(latest.position_m[None], latest.normal[None])

@@ -9,19 +9,14 @@
 """
 from robots.emulators.arm_controller import EmulatedArmController
 from robots.emulators.arm_serial import ArmFault, ArmFaultInjector, ArmPortDisconnectedError, FakeArmSerial
+from common.serial_urls import register_serial_url_package
 
 PACKAGE = "robots.emulators"
 
 
 def register_serial_url_handlers() -> None:
     """Let ``serial.serial_for_url`` open ``armemu://<robot>``. Idempotent."""
-    try:
-        import serial
-    except ImportError as error:
-        raise ImportError("the armemu:// URL needs pyserial: pip install pyserial (or the project's "
-                          "[hardware] extra)") from error
-    if PACKAGE not in serial.protocol_handler_packages:
-        serial.protocol_handler_packages.append(PACKAGE)
+    register_serial_url_package(PACKAGE, "the armemu:// URL")
 
 
 __all__ = ["EmulatedArmController", "FakeArmSerial", "ArmFault", "ArmFaultInjector", "ArmPortDisconnectedError",

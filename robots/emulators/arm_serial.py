@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 from robots.emulators.arm_controller import EmulatedArmController
 from robots.hardware.protocol import ControllerStatus
-from sensor.emulators.fake_port import FakeSerialPort
+from common.fake_port import FakeSerialPort
 
 #: Noise put before a reply by ArmFault.GARBAGE: start and checksum markers followed by bytes that
 #: cannot complete a frame, then a newline, to exercise resynchronisation.

@@ -23,7 +23,7 @@ from robots.hardware import (RobotConnectionError, RobotFaultError, RobotProtoco
                              SerialArm)
 from robots.hardware.protocol import ControllerStatus
 from robots.registry import load
-from sensor.emulators.clock import FakeClock
+from common.clock import FakeClock
 
 PORT = "/dev/ttyEMU0"
 ROBOT = "armar3"

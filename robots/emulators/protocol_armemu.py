@@ -13,7 +13,7 @@ from serial.serialutil import SerialException
 
 from robots.emulators.arm_controller import EmulatedArmController
 from robots.emulators.arm_serial import FakeArmSerial
-from sensor.emulators.pyserial_port import EmulatedSerial
+from common.pyserial_port import EmulatedSerial
 
 
 class Serial(EmulatedSerial):

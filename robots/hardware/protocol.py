@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sensor.drivers.sentences import SentenceError, checksum, frame, unframe  # noqa: F401 (checksum re-exported)
+from common.sentences import SentenceError, checksum, frame, unframe  # noqa: F401 (checksum re-exported)
 
 SEQ_MODULO = 65536
 MAX_FRAME_BYTES = 512

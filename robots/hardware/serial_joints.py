@@ -16,6 +16,7 @@ import numpy as np
 
 from robots.hardware.errors import (RobotCommandError, RobotConnectionError, RobotFaultError, RobotHardwareError,
                                     RobotNotOpenError, RobotProtocolError, RobotWatchdogError)
+from common.serial_urls import register_serial_url_package
 from robots.hardware.joint_interface import EncoderReading, JointInterface
 from robots.hardware.protocol import (MAX_FRAME_BYTES, SEQ_MODULO, AckReply, Command, ControllerStatus, EncoderReply,
                                       ErrorCode, ErrorReply, FrameError, HelloReply, decode_frame,
@@ -222,8 +223,8 @@ class SerialJointInterface(JointInterface):
             raise ImportError(f"{self.device}: opening a port by name needs pyserial: pip install pyserial "
                               f"(or the project's [hardware] extra)") from error
         if self._port_spec.startswith(EMULATOR_SCHEME):
-            from robots.emulators import register_serial_url_handlers
-            register_serial_url_handlers()
+            # by name: pyserial imports the emulator's handler only when such a URL is opened
+            register_serial_url_package("robots.emulators", f"the {EMULATOR_SCHEME} URL")
         try:
             return serial.serial_for_url(self._port_spec, baudrate=self.baudrate,
                                          timeout=min(0.01, self.reply_timeout_s), write_timeout=self.reply_timeout_s)

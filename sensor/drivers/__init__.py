@@ -9,7 +9,7 @@
 Nothing here imports smbus2 or pyserial: pass bus and port objects in. Emulators for tests and
 dry runs live in :mod:`sensor.emulators`.
 """
-from sensor.drivers.bmp280 import BMP280, BMP280Config, IIRFilter, Oversampling, PowerMode, Standby
+from sensor.drivers.bmp280 import BMP280, BMP280RegisterSettings, IIRFilter, Oversampling, PowerMode, Standby
 from sensor.drivers.bmp280_compensation import BMP280Calibration
 from sensor.drivers.bno055 import BNO055, BNO055I2C
 from sensor.drivers.bno055_registers import OperationMode
@@ -22,7 +22,7 @@ from sensor.drivers.hardware_sensor import ChipSource, HardwareTactileSensor, St
 from sensor.drivers.mcu_stream import MicrocontrollerStream, StreamRecord, StreamStats
 
 __all__ = [
-    "BMP280", "BMP280Config", "BMP280Calibration", "IIRFilter", "Oversampling", "PowerMode", "Standby",
+    "BMP280", "BMP280RegisterSettings", "BMP280Calibration", "IIRFilter", "Oversampling", "PowerMode", "Standby",
     "BNO055", "BNO055I2C", "BNO055UART", "OperationMode", "AxisRemap", "CalibrationProfile",
     "CalibrationStatus", "FusionSample", "UnitSelection", "UartLinkStats",
     "MicrocontrollerStream", "StreamRecord", "StreamStats",

@@ -94,7 +94,7 @@ class Standby(enum.IntEnum):
 
 
 @dataclass(frozen=True)
-class BMP280Config:
+class BMP280RegisterSettings:
     """Acquisition settings.
 
     The default (normal mode, pressure x4, temperature x1, IIR filter off, 0.5 ms standby)
@@ -117,9 +117,9 @@ class BMP280Config:
                 object.__setattr__(self, name, kind(value))
             except ValueError:
                 allowed = ", ".join(member.name for member in kind)
-                raise ValueError(f"BMP280Config.{name}={value!r} is not one of {allowed}") from None
+                raise ValueError(f"BMP280RegisterSettings.{name}={value!r} is not one of {allowed}") from None
         if Oversampling.SKIPPED in (self.pressure_oversampling, self.temperature_oversampling):
-            raise ValueError("BMP280Config: this driver reads both channels; pressure needs the "
+            raise ValueError("BMP280RegisterSettings: this driver reads both channels; pressure needs the "
                              "temperature (t_fine), so neither oversampling may be SKIPPED")
 
     def ctrl_meas(self, mode: PowerMode | None = None) -> int:
@@ -155,7 +155,7 @@ class BMP280:
         Object with ``read_i2c_block_data``, ``write_byte_data``, ``write_i2c_block_data``.
     address : int
         0x76 (SDO to GND) or 0x77 (SDO to VDDIO).
-    config : BMP280Config
+    config : BMP280RegisterSettings
         Acquisition settings.
     sleep, clock : callable
         ``sleep(seconds)`` and a monotonic ``clock() -> seconds``; injectable for tests.
@@ -165,7 +165,7 @@ class BMP280:
         Soft-reset the chip first.
     """
 
-    def __init__(self, bus: Any, address: int = 0x76, *, config: BMP280Config = BMP280Config(),
+    def __init__(self, bus: Any, address: int = 0x76, *, config: BMP280RegisterSettings = BMP280RegisterSettings(),
                  sleep: Callable[[float], None] = time.sleep,
                  clock: Callable[[], float] = time.monotonic, attempts: int = 3, reset: bool = True):
         self.registers = I2CRegisters(bus, address, "BMP280", attempts=attempts, sleep=sleep)
@@ -197,10 +197,10 @@ class BMP280:
         self.sleep(STARTUP_TIME_S)
         self._wait_until_clear(STATUS_IM_UPDATE, "NVM copy (im_update)", 0.05)
 
-    def configure(self, config: BMP280Config) -> None:
+    def configure(self, config: BMP280RegisterSettings) -> None:
         """Apply ``config``; the config register is written in sleep mode, where it always takes."""
-        if not isinstance(config, BMP280Config):
-            raise TypeError(f"{self.device}: config must be a BMP280Config, got {type(config).__name__}")
+        if not isinstance(config, BMP280RegisterSettings):
+            raise TypeError(f"{self.device}: config must be a BMP280RegisterSettings, got {type(config).__name__}")
         sleep_ctrl = config.ctrl_meas(PowerMode.SLEEP)
         run_ctrl = config.ctrl_meas(PowerMode.SLEEP if config.mode == PowerMode.FORCED else None)
         self.registers.write(REG_CTRL_MEAS, sleep_ctrl)

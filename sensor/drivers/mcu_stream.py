@@ -17,7 +17,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from sensor.drivers.sentences import SentenceError, checksum, frame, unframe  # noqa: F401 (checksum re-exported)
+from common.sentences import SentenceError, checksum, frame, unframe  # noqa: F401 (checksum re-exported)
 from sensor.drivers.device_clock import DeviceClockMapper
 from sensor.drivers.errors import DeviceDisconnectedError
 

@@ -13,8 +13,8 @@ without hardware, with injectable faults:
 from sensor.emulators.bmp280_chip import BMP280Chip
 from sensor.emulators.bno055_chip import BNO055Chip
 from sensor.emulators.bno055_serial import FakeBNO055Serial
-from sensor.emulators.fake_port import FakeSerialPort, PortDisconnectedError
-from sensor.emulators.clock import FakeClock
+from common.fake_port import FakeSerialPort, PortDisconnectedError
+from common.clock import FakeClock
 from sensor.emulators.fake_smbus import FakeSMBus
 from sensor.emulators.faults import Fault, FaultInjector
 from sensor.emulators.mcu_serial import FakeMicrocontrollerSerial

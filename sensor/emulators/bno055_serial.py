@@ -2,9 +2,9 @@
 from __future__ import annotations
 
 from sensor.emulators.bno055_chip import BNO055Chip
-from sensor.emulators.clock import FakeClock
+from common.clock import FakeClock
 from sensor.emulators.fake_smbus import ChipBusy
-from sensor.emulators.fake_port import FakeSerialPort
+from common.fake_port import FakeSerialPort
 from sensor.emulators.faults import Fault, FaultInjector
 
 #: Noise injected by Fault.GARBAGE; it contains both reply headers (0xBB, 0xEE) followed by

@@ -20,7 +20,7 @@ from sensor.drivers import (BMP280, BNO055I2C, BNO055UART, BusError, Calibration
 from sensor.emulators.bmp280_chip import BMP280Chip
 from sensor.emulators.bno055_chip import BNO055Chip
 from sensor.emulators.bno055_serial import FakeBNO055Serial
-from sensor.emulators.clock import FakeClock
+from common.clock import FakeClock
 from sensor.emulators.fake_smbus import FakeSMBus
 from sensor.emulators.faults import Fault
 from sensor.emulators.mcu_serial import FakeMicrocontrollerSerial

@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from sensor.drivers.mcu_stream import StreamRecord, encode_record, frame_sentence
-from sensor.emulators.fake_port import FakeSerialPort
-from sensor.emulators.clock import FakeClock
+from common.fake_port import FakeSerialPort
+from common.clock import FakeClock
 from sensor.emulators.faults import Fault, FaultInjector
 
 

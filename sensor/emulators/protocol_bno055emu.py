@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from sensor.emulators.bno055_serial import FakeBNO055Serial
-from sensor.emulators.pyserial_port import EmulatedSerial
+from common.pyserial_port import EmulatedSerial
 
 
 class Serial(EmulatedSerial):

@@ -12,15 +12,11 @@ returns at once, as if the timeout had passed.
 """
 from __future__ import annotations
 
+from common.serial_urls import register_serial_url_package
+
 PACKAGE = "sensor.emulators"
 
 
 def register_serial_url_handlers() -> None:
     """Let ``serial.serial_for_url`` open ``bno055emu://`` and ``mcuemu://``. Idempotent."""
-    try:
-        import serial
-    except ImportError as exc:
-        raise ImportError("the emulator URLs need pyserial: pip install pyserial (or the project's "
-                          "[hardware] extra)") from exc
-    if PACKAGE not in serial.protocol_handler_packages:
-        serial.protocol_handler_packages.append(PACKAGE)
+    register_serial_url_package(PACKAGE, "the emulator URLs")

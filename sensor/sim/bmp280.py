@@ -25,7 +25,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from sensor.pad_state import PadState
+from common.pad_state import PadState
 from sensor.sim.pad_response import PadResponse
 from sensor.sim.sampling import SampleClock
 

@@ -42,8 +42,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from sensor.pad_state import PadState
-from sensor.sim.quaternion import rotation_from_wxyz, wxyz_from_rotation
+from common.pad_state import PadState
+from common.rotations import rotation_from_wxyz, wxyz_from_rotation
 from sensor.sim.sampling import SampleClock
 
 STANDARD_GRAVITY_MPS2 = 9.80665

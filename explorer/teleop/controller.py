@@ -23,14 +23,15 @@ from typing import Callable
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from explorer.loop import LOOP_SETTLING, PAD, LoopConfig, Recorder, TouchRecord
-from explorer.positioner import Positioner
+from explorer.contact import LOOP_SETTLING, ContactPipeline, MeasuredContact, NoContactMeasured, ObjectFrame
+from explorer.loop import Recorder
+from explorer.rig import Rig
 from explorer.strategies import ExplorationState, VarianceStrategy
 from explorer.teleop.devices import InputDevice, TeleopCommand
-from explorer.touch import ObjectPrior
+from explorer.touch import TouchOutcome
 from reconstruction.gpis import GPIS
 from sensor.contact_detection import PressureContactDetector
-from sensor.normal_estimation import OrientationNotSettledError, SettlingConfig, oriented_contact
+from sensor.normal_estimation import SettlingConfig
 from sensor.reading import Reading
 
 
@@ -51,9 +52,7 @@ class TeleopConfig:
     joint_speed_rad_s : float
         Fastest joint speed of a jog step.
     press_force_n : float
-        Motion into the surface stops at this pad force.
-    pad_compliance_m_per_n : float
-        Pad compression per newton, added back to the contact point (as the loop does).
+        Motion into the surface stops at this pad force (estimated with the rig's pad calibration).
     """
 
     control_period_s: float = 1.0 / 30.0
@@ -63,7 +62,6 @@ class TeleopConfig:
     damping: float = 1e-3
     joint_speed_rad_s: float = 0.5
     press_force_n: float = 1.5
-    pad_compliance_m_per_n: float = LoopConfig.pad_compliance_m_per_n
 
     def __post_init__(self):
         for name in ("control_period_s", "max_speed_mps", "max_rate_radps", "joint_speed_rad_s",
@@ -103,39 +101,37 @@ class _Press:
     recorded: bool = False
 
 
-class TeleopSession:
+class TeleopController:
     """Runs a device against an arm and sensor, recording contacts and updating the GPIS.
 
     Parameters
     ----------
-    robot : robots.interface.Robot
-    sensor : sensor.interface.TactileSensor (opened by the caller)
-    kinematics : robots.kinematics.ArmKinematics
-    positioner : Positioner
-        The stand (its current pose carries contacts into the object frame).
-    prior : ObjectPrior
-        Object frame; bounds the GPIS and the suggestion grid.
+    rig : explorer.rig.Rig
+        Robot (compliant), sensor (opened by the caller), kinematics, positioner (its current pose
+        carries contacts into the object frame), prior (bounds the GPIS and the suggestion grid)
+        and the pad calibration.
     recorder : Recorder
     config : TeleopConfig
-    on_update : callable (TeleopSession) -> None, optional
+    on_update : callable (TeleopController) -> None, optional
         Called after each recorded contact (the sim glue draws with it).
     """
 
-    def __init__(self, robot, sensor, kinematics, positioner: Positioner, prior: ObjectPrior,
-                 recorder: Recorder | None = None, config: TeleopConfig = TeleopConfig(),
-                 on_update: Callable[["TeleopSession"], None] | None = None,
-                 detector: PressureContactDetector | None = None, settling: SettlingConfig | None = None):
+    def __init__(self, rig: Rig, recorder: Recorder | None = None, config: TeleopConfig = TeleopConfig(),
+                 on_update: Callable[["TeleopController"], None] | None = None,
+                 detector: PressureContactDetector | None = None, settling: SettlingConfig = LOOP_SETTLING):
+        robot = rig.robot
         self.robot = robot
-        self.sensor = sensor
-        self.kin = kinematics
-        self.positioner = positioner
-        self.prior = prior
+        self.sensor = rig.sensor
+        self.kin = rig.kinematics
+        self.positioner = rig.positioner
+        self.prior = rig.prior
         self.recorder = recorder or Recorder()
         self.config = config
         self.on_update = on_update
         self.detector = detector or PressureContactDetector()
-        self.settling = settling or SettlingConfig(**LOOP_SETTLING)
-        self.gpis = GPIS(bounds=prior.bounds())
+        self.settling = settling
+        self.contact_pipeline = ContactPipeline(rig.kinematics, rig.pad, settling)
+        self.gpis = GPIS(bounds=rig.prior.bounds())
         self.strategy = VarianceStrategy()
         self.contacts: list[TeleopContact] = []
         self.suggestion_m: np.ndarray | None = None
@@ -246,7 +242,7 @@ class TeleopSession:
                 self.recorder.event("contact_end", event.t_s)
             if self._press is not None:
                 self._press.readings.append(reading)
-                self._force_n = PAD.force_estimate_n(reading.pressure_pa - self._press.baseline_pa)
+                self._force_n = self.contact_pipeline.force_estimate_n(reading.pressure_pa - self._press.baseline_pa)
         return False
 
     def _maybe_record(self) -> None:
@@ -259,33 +255,30 @@ class TeleopSession:
             return
         t_s = float(self.robot.time_s())
         q = self.robot.joint_positions()
-        pivot = self.kin.forward_kinematics(q, link=self.kin.spec.pivot_link).position_m
+        frame = ObjectFrame.of_positioner(self.positioner)
+        _, axis_obj = frame.to_object(np.zeros((1, 3)), self.kin.forward_kinematics(q).z_axis[None])
         try:
-            contact = oriented_contact(resting, pivot, self.kin.pivot_to_pad_in_body, press.baseline_pa,
-                                       settling=self.settling)
-        except (OrientationNotSettledError, ValueError):
+            measured = self.contact_pipeline.measure(resting, press.baseline_pa, q, frame, axis_obj[0])
+        except NoContactMeasured:
             return  # not settled yet (or saturated): try again next period
         press.recorded = True
         if self._joint_state_t_s != t_s:  # replay takes the pose from the joint state at t_s
             self.recorder.joint_state(t_s, q)
             self._joint_state_t_s = t_s
-        self._record(contact, self.kin.forward_kinematics(q).z_axis, (self._rest_since_s, t_s))
+        self._record(measured, axis_obj[0], frame, press.baseline_pa, (self._rest_since_s, t_s))
 
-    def _record(self, contact, pad_axis_world: np.ndarray, press_t_s: tuple[float, float]) -> None:
-        surface = contact.position_m + contact.normal * contact.force_n * self.config.pad_compliance_m_per_n
-        p_obj, n_obj = self.positioner.to_object(surface[None], contact.normal[None])
-        _, axis_obj = self.positioner.to_object(np.zeros((1, 3)), pad_axis_world[None])
-        pose = self.positioner.pose()
-        normal = n_obj[0] / np.linalg.norm(n_obj[0])
+    def _record(self, measured: MeasuredContact, pad_axis_object: np.ndarray, frame: ObjectFrame,
+                baseline_pa: float, press_t_s: tuple[float, float]) -> None:
+        contact, position, normal = measured.world, measured.position_m, measured.normal
         index = len(self.contacts)
-        record = TouchRecord(index, "contact", p_obj[0], axis_obj[0], pose.yaw_rad, pose.tilt_rad,
-                             contact=contact, position_m=p_obj[0], normal=normal, t_s=contact.t_s,
-                             press_t_s=press_t_s)
+        record = TouchOutcome(index, "contact", position, pad_axis_object, frame.pose.yaw_rad, frame.pose.tilt_rad,
+                              contact=contact, position_m=position, normal=normal, t_s=contact.t_s,
+                              press_t_s=press_t_s, baseline_pa=baseline_pa, quality=measured.quality)
         self.recorder.touch(record)
-        teleop_contact = TeleopContact(index, p_obj[0], normal, contact)
+        teleop_contact = TeleopContact(index, position, normal, contact)
         self.contacts.append(teleop_contact)
         try:
-            self.gpis.add(p_obj[0], normal)
+            self.gpis.add(position, normal)
         except ValueError as err:  # outside the prior box: kept in the record, not in the model
             self.recorder.event("not_modelled", contact.t_s, message=str(err))
             return

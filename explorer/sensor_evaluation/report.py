@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from sensor.contact_detection import PressureContactDetector
-from sensor.evaluation.experiments import REFERENCE_MEAN_NORMAL_ERROR_DEG, EvaluationReport
-from sensor.evaluation.variants import DEFAULT, NOISELESS
+from explorer.sensor_evaluation.experiments import REFERENCE_MEAN_NORMAL_ERROR_DEG, EvaluationReport
+from explorer.sensor_evaluation.variants import DEFAULT, NOISELESS
 
 
 def _finite_or_none(value):

@@ -2,7 +2,7 @@
 
 Every press of the evaluation starts at the robot's home pose and moves the pad face centre along
 its own axis (the approach direction); objects are posed around that line (see
-:mod:`sensor.evaluation.scene`). The inverse kinematics of the line is solved once per rig.
+:mod:`explorer.sensor_evaluation.scene`). The inverse kinematics of the line is solved once per rig.
 """
 from __future__ import annotations
 

@@ -28,10 +28,10 @@ from robots.emulators.arm_serial import FakeArmSerial
 from robots.kinematics import ArmKinematics
 from sensor.emulators.bmp280_chip import BMP280Chip
 from sensor.emulators.bno055_chip import BNO055Chip
-from sensor.emulators.clock import FakeClock
+from common.clock import FakeClock
 from sensor.emulators.fake_smbus import FakeSMBus
 from sensor.sim.pad_response import PadResponse
-from sensor.sim.quaternion import rotation_from_wxyz, wxyz_from_rotation
+from common.rotations import rotation_from_wxyz, wxyz_from_rotation
 
 GRAVITY_MPS2 = 9.80665
 BMP280_ADDRESS = 0x76

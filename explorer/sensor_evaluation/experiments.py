@@ -2,9 +2,9 @@
 
 1. Contact detection: presses at random tilts and forces on the flat slab, the sphere and the
    cylinder, plus free-motion trials with sudden moves and stops; every detector is scored on the
-   same recorded readings (:mod:`sensor.evaluation.detection`).
+   same recorded readings (:mod:`explorer.sensor_evaluation.detection`).
 2. Normal accuracy: presses on the flat slab tilted by fixed angles at evenly spread azimuths,
-   scored per sensor variant (:mod:`sensor.evaluation.normal_accuracy`).
+   scored per sensor variant (:mod:`explorer.sensor_evaluation.normal_accuracy`).
 3. Speed: simulated seconds per wall-clock second of the press trials (arm, physics, sensor models
    and recording), and optionally the robots package's own benchmark.
 
@@ -20,13 +20,13 @@ from typing import Callable
 import numpy as np
 
 import objects
-from sensor.evaluation.detection import DetectorScore, score_detectors
-from sensor.evaluation.normal_accuracy import NormalAccuracy, normal_trial, summarize
-from sensor.evaluation.rig import PressRig, build_rig
-from sensor.evaluation.scene import SUPPORTED_OBJECTS, check_object_name, random_touch_site
-from sensor.evaluation.trials import (FreeMotionProtocol, PressProtocol, PressSpec, TrialRecording,
+from explorer.sensor_evaluation.detection import DetectorScore, score_detectors
+from explorer.sensor_evaluation.normal_accuracy import NormalAccuracy, normal_trial, summarize
+from explorer.sensor_evaluation.press_rig import PressRig, build_rig
+from explorer.sensor_evaluation.scene import SUPPORTED_OBJECTS, check_object_name, random_touch_site
+from explorer.sensor_evaluation.trials import (FreeMotionProtocol, PressProtocol, PressSpec, TrialRecording,
                                       run_free_motion, run_press)
-from sensor.evaluation.variants import DEFAULT, sensor_variants
+from explorer.sensor_evaluation.variants import DEFAULT, sensor_variants
 from sensor.sim_sensor import SimulatedSensorConfig
 
 REFERENCE_MEAN_NORMAL_ERROR_DEG = 7.3
@@ -44,7 +44,7 @@ class EvaluationConfig:
     seed : int
         Root seed of every random choice and sensor.
     objects : tuple of str
-        Objects of the detection experiment, from :data:`sensor.evaluation.scene.SUPPORTED_OBJECTS`.
+        Objects of the detection experiment, from :data:`explorer.sensor_evaluation.scene.SUPPORTED_OBJECTS`.
     tilt_range_deg : (2,) float
         Surface tilts of the detection presses are drawn uniformly from this range, degrees.
     force_range_n : (2,) float

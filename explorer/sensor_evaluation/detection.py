@@ -19,7 +19,7 @@ import numpy as np
 
 from sensor.contact_detection import (AccelerationSpikeDetector, ContactDetector, OrientationChangeDetector,
                                       PressureContactDetector)
-from sensor.evaluation.trials import TrialRecording
+from explorer.sensor_evaluation.trials import TrialRecording
 
 DEFAULT_DETECTORS: dict[str, Callable[[], ContactDetector]] = {
     "pressure": PressureContactDetector,

@@ -11,16 +11,16 @@ Public API:
 The CLI is ``tactile-sensor-eval`` (scripts/sensor_eval.py). Importing this package does not start
 a simulator; PyBullet and torch load when a rig or a trial is built.
 """
-from sensor.evaluation.detection import DEFAULT_DETECTORS, DetectorScore, GroundTruthConfig, score_detectors
-from sensor.evaluation.experiments import (REFERENCE_MEAN_NORMAL_ERROR_DEG, EvaluationConfig, EvaluationReport,
+from explorer.sensor_evaluation.detection import DEFAULT_DETECTORS, DetectorScore, GroundTruthConfig, score_detectors
+from explorer.sensor_evaluation.experiments import (REFERENCE_MEAN_NORMAL_ERROR_DEG, EvaluationConfig, EvaluationReport,
                                            run_evaluation)
-from sensor.evaluation.normal_accuracy import NormalAccuracy, normal_trial, summarize
-from sensor.evaluation.report import format_table, to_json_dict, write_figures
-from sensor.evaluation.rig import PressRig, build_rig
-from sensor.evaluation.scene import SUPPORTED_OBJECTS
-from sensor.evaluation.trials import (FreeMotionProtocol, PressProtocol, PressSpec, TrialRecording, run_free_motion,
+from explorer.sensor_evaluation.normal_accuracy import NormalAccuracy, normal_trial, summarize
+from explorer.sensor_evaluation.report import format_table, to_json_dict, write_figures
+from explorer.sensor_evaluation.press_rig import PressRig, build_rig
+from explorer.sensor_evaluation.scene import SUPPORTED_OBJECTS
+from explorer.sensor_evaluation.trials import (FreeMotionProtocol, PressProtocol, PressSpec, TrialRecording, run_free_motion,
                                       run_press)
-from sensor.evaluation.variants import sensor_variants
+from explorer.sensor_evaluation.variants import sensor_variants
 
 __all__ = [
     "DEFAULT_DETECTORS", "DetectorScore", "EvaluationConfig", "EvaluationReport", "FreeMotionProtocol",

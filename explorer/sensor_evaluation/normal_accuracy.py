@@ -14,7 +14,7 @@ from typing import Sequence
 import numpy as np
 
 from sensor.contact_detection import PressureContactDetector
-from sensor.evaluation.trials import TrialRecording
+from explorer.sensor_evaluation.trials import TrialRecording
 from sensor.normal_estimation import NormalEstimate, OrientationNotSettledError, SettlingConfig, estimate_normal
 
 

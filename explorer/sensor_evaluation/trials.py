@@ -19,8 +19,8 @@ import numpy as np
 
 from objects import ObjectModel
 from sensor.contact_detection import ContactEvent, PressureContactDetector
-from sensor.evaluation.rig import PressRig
-from sensor.evaluation.scene import TouchSite, free_gap_m, pose_for_contact, tilted_normal
+from explorer.sensor_evaluation.press_rig import PressRig
+from explorer.sensor_evaluation.scene import TouchSite, free_gap_m, pose_for_contact, tilted_normal
 from sensor.reading import Reading
 from sensor.sim_sensor import SimulatedSensorConfig, SimulatedTactileSensor
 
@@ -76,7 +76,7 @@ class PressSpec:
     Attributes
     ----------
     object_name : str
-        One of :data:`sensor.evaluation.scene.SUPPORTED_OBJECTS`.
+        One of :data:`explorer.sensor_evaluation.scene.SUPPORTED_OBJECTS`.
     site : TouchSite
         The touched point and its outward normal, object frame.
     tilt_rad : float
@@ -262,7 +262,7 @@ def run_press(rig: PressRig, model: ObjectModel, spec: PressSpec, sensors: Mappi
     ValueError
         If ``spec`` does not name ``model`` or the protocol's gap leaves the pad touching at home.
     """
-    from robots.rotations import angle_between_vectors, matrix_to_quat, quat_to_matrix
+    from common.rotations import angle_between_vectors, matrix_to_quat, quat_to_matrix
 
     variants = _check_variants(sensors)
     if spec.object_name != model.name:

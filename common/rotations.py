@@ -1,10 +1,11 @@
-"""Quaternion and rotation-matrix helpers (numpy, float64).
+"""Quaternion and rotation-matrix helpers (numpy, float64), and the bridge to scipy's Rotation.
 
-Quaternions are (w, x, y, z) unless a name says ``xyzw`` (PyBullet's order).
+Quaternions are (w, x, y, z) unless a name says ``xyzw`` (PyBullet's and scipy's order).
 """
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 
 def as_unit_quat_wxyz(quat_wxyz, name: str = "quaternion") -> np.ndarray:
@@ -76,23 +77,6 @@ def matrix_to_quat(matrix) -> np.ndarray:
     return quats.reshape(*batch, 4)
 
 
-def quat_multiply(a_wxyz, b_wxyz) -> np.ndarray:
-    """Hamilton product a * b of (…, 4) quaternions (w, x, y, z)."""
-    a = np.asarray(a_wxyz, dtype=float)
-    b = np.asarray(b_wxyz, dtype=float)
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack(
-        [
-            aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-        ],
-        axis=-1,
-    )
-
-
 def rotation_angle_between(r_a, r_b) -> np.ndarray:
     """Angle (rad) of the relative rotation between (…, 3, 3) matrices ``r_a`` and ``r_b``."""
     rel = np.swapaxes(np.asarray(r_a, dtype=float), -1, -2) @ np.asarray(r_b, dtype=float)
@@ -107,3 +91,24 @@ def angle_between_vectors(u, v) -> np.ndarray:
     cross = np.linalg.norm(np.cross(u, v), axis=-1)
     dot = np.sum(u * v, axis=-1)
     return np.arctan2(cross, dot)
+
+
+def rotation_from_wxyz(quat_wxyz) -> Rotation:
+    """scipy Rotation from (w, x, y, z) quaternion(s), shape (4,) or (n, 4); normalised by scipy."""
+    q = np.asarray(quat_wxyz, dtype=float)
+    if q.shape[-1] != 4 or q.ndim > 2:
+        raise ValueError(f"quaternions must have shape (4,) or (n, 4), got {q.shape}")
+    return Rotation.from_quat(q[..., [1, 2, 3, 0]])
+
+
+def wxyz_from_rotation(rotation: Rotation) -> np.ndarray:
+    """(w, x, y, z) quaternion(s) of a scipy Rotation, shape (4,) or (n, 4)."""
+    return rotation.as_quat()[..., [3, 0, 1, 2]]
+
+
+def angle_between_rad(quat_a_wxyz, quat_b_wxyz) -> float:
+    """Angle of the rotation taking orientation a to orientation b, radians in [0, pi]; sign-blind."""
+    a = np.asarray(quat_a_wxyz, dtype=float)
+    b = np.asarray(quat_b_wxyz, dtype=float)
+    cosine = abs(float(np.dot(a, b))) / (np.linalg.norm(a) * np.linalg.norm(b))
+    return 2.0 * float(np.arccos(min(1.0, cosine)))

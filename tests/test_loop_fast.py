@@ -1,0 +1,100 @@
+"""The exploration loop's logic on in-memory fakes (tests/fakes.py): no simulator, milliseconds.
+
+A scripted strategy asks for two head-on touches, an oblique one (the loop must set it aside and
+repeat it along the measured normal), one beside the sphere (a miss that sweeps free space) and
+one the planner cannot reach.
+"""
+import numpy as np
+import pytest
+
+from explorer.loop import ExplorationLoop, LoopConfig
+from explorer.recording import RunRecorder, read_contacts_csv
+from explorer.session import read_session
+from explorer.touch import Touch
+from fakes import FakePlanner, ScriptedStrategy, sphere_rig
+from reconstruction.gpis import GPIS
+
+RADIUS_M = 0.04
+
+
+def scripted_touches(radius_m: float = RADIUS_M) -> list[Touch]:
+    oblique = np.array([-np.sin(np.radians(40.0)), 0.0, -np.cos(np.radians(40.0))])
+    return [
+        Touch(np.array([radius_m, 0.0, 0.0]), np.array([-1.0, 0.0, 0.0]), strategy="scripted"),
+        Touch(np.array([0.0, -radius_m, 0.0]), np.array([0.0, 1.0, 0.0]), strategy="scripted"),
+        Touch(np.array([0.0, 0.0, radius_m]), oblique, strategy="scripted"),
+        Touch(np.array([0.0, 1.25 * radius_m, 0.0]), np.array([-1.0, 0.0, 0.0]), strategy="scripted"),
+        Touch(np.array([0.0, 0.0, -radius_m]), np.array([0.0, 0.0, 1.0]), strategy="scripted"),
+    ]
+
+
+@pytest.fixture
+def finished(tmp_path):
+    world, rig = sphere_rig(RADIUS_M)
+    planner = FakePlanner(rig.positioner, unreachable=lambda target: target[2] < -0.5 * RADIUS_M)
+    gpis = GPIS(bounds=rig.prior.bounds())
+    recorder = RunRecorder(tmp_path, dict(rig.description, seed=0, configuration={}))
+    loop = ExplorationLoop(rig, planner, ScriptedStrategy(scripted_touches()), gpis,
+                           LoopConfig(touches=6, proposal_rounds=1), recorder)
+    records = loop.run()
+    recorder.close()
+    return loop, records, tmp_path
+
+
+def test_touches_misses_realigns_and_unreachable_targets_are_told_apart(finished):
+    loop, records, _ = finished
+    assert [r.kind for r in records] == ["contact", "contact", "realign", "contact", "miss", "unreachable"]
+    assert [r.strategy for r in records[:4]] == ["scripted", "scripted", "scripted", "realign"]
+    repeat = records[3]
+    np.testing.assert_allclose(repeat.approach_dir, -records[2].normal, atol=1e-12)
+
+
+def test_contacts_lie_on_the_sphere_with_radial_normals(finished):
+    loop, records, _ = finished
+    for record in records:
+        if record.kind not in ("contact", "realign"):
+            continue
+        assert abs(np.linalg.norm(record.position_m) - RADIUS_M) < 1e-9
+        np.testing.assert_allclose(record.normal, record.position_m / RADIUS_M, atol=1e-9)
+        assert record.quality.force_n == pytest.approx(record.contact.force_n)
+        assert record.baseline_pa is not None
+
+
+def test_the_realign_is_set_aside_and_only_contacts_reach_the_gpis(finished):
+    loop, records, _ = finished
+    assert loop.gpis.n_contacts == 3
+    oblique = records[2]
+    assert oblique.quality.approach_angle_rad > loop.config.realign_angle_rad
+    assert records[3].quality.approach_angle_rad < 1e-6
+
+
+def test_a_miss_sweeps_free_space_outside_the_sphere(finished):
+    loop, records, _ = finished
+    miss = records[4]
+    assert miss.free_space_m is not None and len(miss.free_space_m) > 0
+    assert np.all(np.linalg.norm(miss.free_space_m, axis=1) > RADIUS_M)
+    lo, hi = loop.gpis.bounds
+    assert np.all((miss.free_space_m > lo) & (miss.free_space_m < hi))
+
+
+def test_the_recording_holds_every_touch_and_the_contacts(finished):
+    loop, records, out = finished
+    points, normals = read_contacts_csv(out / "contacts.csv")
+    contacts = [r for r in records if r.kind == "contact"]
+    np.testing.assert_array_equal(points, [r.position_m for r in contacts])
+    np.testing.assert_array_equal(normals, [r.normal for r in contacts])
+    session = read_session(out / "session")
+    results = [e.fields["result"] for e in session.events if "result" in e.fields]
+    assert results == [r.kind for r in records]
+    assert len(session.contacts) == len(contacts)
+    assert len(session.readings) > 0 and len(session.joint_states) > 0
+
+
+def test_a_restored_loop_has_the_field_of_the_finished_one(finished):
+    loop, records, _ = finished
+    _, rig = sphere_rig(RADIUS_M)
+    fresh = ExplorationLoop(rig, FakePlanner(rig.positioner), ScriptedStrategy([]), GPIS(bounds=rig.prior.bounds()),
+                            LoopConfig(touches=6))
+    fresh.restore(records)
+    points = np.random.default_rng(0).uniform(*loop.gpis.bounds, size=(100, 3))
+    np.testing.assert_allclose(fresh.gpis.mean(points), loop.gpis.mean(points), rtol=0, atol=1e-12)
