@@ -34,7 +34,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.script is not None and not args.script.is_file():
         parser.error(f"script file {args.script} does not exist")
 
-    observer = observer_from_argument(parser, args.rerun, "tactile-teleop", surface_every=1)
+    observer = observer_from_argument(parser, args.rerun, "tactile-teleop")
 
     import torch
 
