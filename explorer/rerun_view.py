@@ -96,7 +96,7 @@ class RerunObserver(RunObserver):
         settings, else the defaults.
     """
 
-    def __init__(self, stream, surface_every: int = 10, surface_resolution: int = 32,
+    def __init__(self, stream, surface_every: int = 1, surface_resolution: int = 32,
                  pad_path_step_s: float = 0.02, detector_config=None):
         if surface_every < 0 or surface_resolution < 8 or not pad_path_step_s > 0:
             raise ValueError("surface_every >= 0, surface_resolution >= 8 and pad_path_step_s > 0 are needed")
@@ -394,7 +394,7 @@ def add_rerun_argument(parser) -> None:
                              f"(needs the viz extra: {INSTALL_HINT})")
 
 
-def observer_from_argument(parser, value: str | None, application: str, surface_every: int = 10):
+def observer_from_argument(parser, value: str | None, application: str, surface_every: int = 1):
     """The :class:`RerunObserver` a ``--rerun`` value asks for, None without the flag.
 
     Without rerun-sdk: one line naming ``pip install -e .[viz]`` and exit status 2.

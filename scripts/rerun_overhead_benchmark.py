@@ -46,7 +46,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--touches", type=int, default=20)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--repeats", type=int, default=2)
-    parser.add_argument("--surface-every", type=int, default=10, help="GPIS surface every k touches")
+    parser.add_argument("--surface-every", type=int, default=1, help="GPIS surface every k touches")
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args(argv)
 

@@ -53,7 +53,7 @@ def main(argv: list[str] | None = None) -> None:
         except ValueError as err:
             parser.error(str(err))
 
-    observer = observer_from_argument(parser, args.rerun, "tactile-teleop", surface_every=1)
+    observer = observer_from_argument(parser, args.rerun, "tactile-teleop")
 
     import torch
 
