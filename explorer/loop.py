@@ -165,6 +165,8 @@ class ExplorationLoop:
         self.times = PhaseTimes()
         self._contact_readings: list[Reading] = []
         self._baseline_pa: float | None = None
+        self._last_reading_t_s: float | None = None
+        self._press_start_s = -np.inf
         self._follow_up: Touch | None = None
 
     # ------------------------------------------------------------------ public
@@ -274,7 +276,9 @@ class ExplorationLoop:
                                plan.stand.yaw_rad, plan.stand.tilt_rad, t_s=self.robot.time_s())
         self._poll()
         self.detector.reset()
-        press_start = self.robot.time_s()
+        # The press is the readings after the last one drained here, t0 < t (as replay takes it).
+        press_start = self._last_reading_t_s if self._last_reading_t_s is not None else self.robot.time_s()
+        self._press_start_s = press_start
         self._contact_readings = []
         speed = self._joint_speed(plan)
         approach = self.robot.guarded_move(plan.path_q[1:], stop=self._contact_started,
@@ -334,9 +338,12 @@ class ExplorationLoop:
 
     def _contact_record(self, record: TouchOutcome) -> TouchOutcome:
         record.baseline_pa = self._baseline_pa
+        q = self.robot.joint_positions()
+        # Logged so that replay measures the contact at these very encoder readings (on hardware
+        # each call reads the encoders afresh).
+        self.recorder.joint_state(self.robot.time_s(), q)
         try:
-            measured = self.contact_pipeline.measure(self._contact_readings, self._baseline_pa,
-                                                      self.robot.joint_positions(),
+            measured = self.contact_pipeline.measure(self._contact_readings, self._baseline_pa, q,
                                                       ObjectFrame.of_positioner(self.positioner), record.approach_dir)
         except NoContactMeasured as err:
             self.recorder.event("no_normal", self.robot.time_s(), message=str(err))
@@ -359,6 +366,7 @@ class ExplorationLoop:
     def _poll(self) -> list[Reading]:
         readings = self.sensor.drain()
         if readings:
+            self._last_reading_t_s = readings[-1].t_s
             self.recorder.readings(readings)
             self.recorder.joint_state(self.robot.time_s(), self.robot.joint_positions())
         return readings
@@ -367,6 +375,8 @@ class ExplorationLoop:
         """Feed every new reading to the detector; keep the readings from the confirmed start on."""
         started = False
         for reading in self._poll():
+            if reading.t_s <= self._press_start_s:  # a device may stamp two readings alike
+                continue
             event = self.detector.update(reading)
             if event is not None and event.kind == "start":
                 started = True

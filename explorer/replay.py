@@ -56,7 +56,7 @@ from explorer.planner import PlannerConfig, approach_line
 from explorer.recording import CONTACTS_HEADER, contacts_csv_row
 from explorer.session import SessionReader
 from explorer.session.checks import require_replay_files, usable_readings
-from explorer.touch import TouchOutcome
+from explorer.touch import ObjectPrior, TouchOutcome
 from reconstruction.gpis import GPIS, KERNEL_NAMES
 from sensor.contact_detection import PressureContactDetector, PressureDetectorConfig
 from sensor.normal_estimation import SettlingConfig
@@ -290,7 +290,10 @@ class SessionReplay:
                 self.truth = objects.load(object_name).mesh
             except (ValueError, FileNotFoundError):
                 self.truth = None
-        if self.truth is not None:
+        recorded_prior = configuration.get("prior")
+        if recorded_prior is not None:  # the box the run's GPIS was bounded by
+            self.prior = ObjectPrior(recorded_prior["centre_m"], recorded_prior["half_extent_m"])
+        elif self.truth is not None:
             from explorer.rig import object_prior
 
             self.prior = object_prior(self.truth)

@@ -108,7 +108,8 @@ class TouchOutcome:
     t_s : float
         Time of the outcome (the contact's time for a contact), seconds.
     press_t_s : (float, float) or None
-        Detector reset .. end of the hold: the readings replay detects the contact in.
+        The last reading before the detector reset .. the end of the hold: replay detects the
+        contact in the readings with ``t0 < t <= t1``.
     strategy : str
         The strategy that proposed the touch (``realign`` for a repeat).
     free_space_m : (k, 3) float or None

@@ -234,6 +234,7 @@ def test_a_device_failing_mid_run_stops_the_arm_keeps_the_records_and_the_run_re
 
 def test_the_calibrated_imu_mounting_is_applied_to_the_measured_normals(spec, kinematics, tmp_path, one_torch_thread):
     """An IMU mounted 12 deg off: normals are 12 deg off without its calibration and right with it."""
+    from explorer.replay import ReplaySettings, SessionReplay
     from explorer.run import RunSettings, run_on_rig
     from sensor.normal_estimation import ImuAlignment
     from sensor.pad_calibration import PadCalibration
@@ -253,6 +254,11 @@ def test_the_calibrated_imu_mounting_is_applied_to_the_measured_normals(spec, ki
             result = run_on_rig(rig, settings, tmp_path / name)
         contacts = [r for r in result.records if r.kind in ("contact", "realign")]
         assert contacts, [r.kind for r in result.records]
+        if name == "calibrated":  # the recorded pad calibration (IMU mounting) is what replay uses
+            replayed = SessionReplay(tmp_path / name).run(ReplaySettings(figures=False))
+            assert replayed.notes == []
+            np.testing.assert_array_equal(replayed.points_m, [r.position_m for r in result.records
+                                                              if r.kind == "contact"])
         errors[name] = [np.degrees(np.arccos(np.clip(np.dot(r.normal, r.position_m / np.linalg.norm(r.position_m)),
                                                      -1, 1))) for r in contacts]
     assert max(errors["calibrated"]) < 3.0, errors

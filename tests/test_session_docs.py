@@ -16,7 +16,7 @@ from sensor.oriented_contact import OrientedContact
 from sensor.reading import Reading
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "SESSION_FORMAT.md"
-PROJECT_PACKAGES = ("robots", "objects", "sensor", "explorer", "reconstruction", "scripts")
+PROJECT_PACKAGES = ("common", "robots", "objects", "sensor", "explorer", "reconstruction", "scripts")
 
 # Runs the example as a script, then reports what it read and which project packages got imported.
 HARNESS = """
