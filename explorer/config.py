@@ -20,6 +20,7 @@ and roughly where, and the exploration settings, from a TOML or JSON file.
     centre_m = [0.0, 0.55, 1.0]         # rough centre, robot base frame (the object frame's origin)
     half_extent_m = [0.06, 0.06, 0.08]  # rough half size along the base axes (over-estimate)
     reference_mesh = "mug.stl"          # optional true surface, object frame, for error metrics
+    units = "m"                         # length unit of the mesh files: "m" (default), "cm", "mm", "in"
 
     [exploration]
     touches = 50
@@ -50,6 +51,8 @@ BMP280_ADDRESSES = (0x76, 0x77)
 BNO055_ADDRESSES = (0x28, 0x29)
 BNO055_UART_BAUD = 115200
 MCU_DEFAULT_BAUD = 230400
+#: Length units a mesh file may be in (the keys of ``objects.UNITS``; not imported to keep this light).
+MESH_UNITS = ("m", "cm", "mm", "in")
 FUSION_MODES = ("IMU", "COMPASS", "M4G", "NDOF_FMC_OFF", "NDOF")
 
 SimBuilder = Callable[["BackendConfig"], ContextManager[tuple[Any, Any]]]
@@ -232,13 +235,18 @@ class ObjectConfig:
         Required on hardware; in simulation it comes from the object's mesh, in emulation from
         the sphere.
     reference_mesh : Path or None
-        The true surface, object frame, metres (any format trimesh reads), for error metrics.
+        The true surface, object frame (OBJ, STL or PLY, checked by :func:`objects.load`), for
+        error metrics.
+    units : str
+        Length unit of ``reference_mesh`` and of a mesh file given as ``name``: "m" (default),
+        "cm", "mm" or "in" (the ``--units`` flag of the commands).
     """
 
     name: str = "banana"
     centre_m: tuple[float, float, float] | None = None
     half_extent_m: tuple[float, float, float] | None = None
     reference_mesh: Path | None = None
+    units: str = "m"
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -250,6 +258,8 @@ class ObjectConfig:
             if not isinstance(self.reference_mesh, (str, Path)) or not str(self.reference_mesh):
                 raise _fail("object.reference_mesh", f"expected a mesh file path, got {self.reference_mesh!r}")
             set_(self, "reference_mesh", Path(self.reference_mesh))
+        if self.units not in MESH_UNITS:
+            raise _fail("object.units", f"expected one of {', '.join(MESH_UNITS)}, got {self.units!r}")
 
 
 @dataclass(frozen=True)

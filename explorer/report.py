@@ -46,7 +46,7 @@ def write_report(run_dir: Path, out_dir: Path | None = None) -> list[Path]:
 
     truth = None
     name = metrics.get("object")
-    if name in objects.names():
+    if name in objects.names() or objects.generated.is_generated_name(name):
         truth = objects.load(name).mesh
     mesh_path = run_dir / "reconstruction.ply"
     mesh = trimesh.load(mesh_path, force="mesh") if mesh_path.is_file() else None

@@ -19,10 +19,29 @@ from explorer.run import PRIOR_GROWTH, PRIOR_MARGIN_M, Rig, RunSettings, object_
 from explorer.touch import ObjectPrior
 
 
+def object_name(config: BackendConfig) -> str:
+    """The object to load: ``object.name``, or for a mesh file in simulation its copy in metres
+    (``object.units``, see :func:`objects.in_metres`)."""
+    import objects
+
+    name = config.object.name
+    if config.robot.backend != "sim" or not objects.is_mesh_file_name(name):
+        return name
+    try:
+        return objects.in_metres(name, config.object.units)
+    except ValueError as error:
+        raise ValueError(f"object.name: {_config_units_hint(error)}") from error
+
+
+def _config_units_hint(error: Exception) -> str:
+    """A loader message with its command-line advice (``--units mm``) said as the config key."""
+    return str(error).replace("pass --units ", "set object.units = ").replace("with --units", "with object.units")
+
+
 def run_settings(config: BackendConfig) -> RunSettings:
     """The run settings of ``config`` (``[exploration]``, the object's name, the robot)."""
     exploration = config.exploration
-    return RunSettings(object=config.object.name, robot=config.robot.spec, strategy=exploration.strategy,
+    return RunSettings(object=object_name(config), robot=config.robot.spec, strategy=exploration.strategy,
                        touches=exploration.touches, seed=exploration.seed, use_normals=exploration.use_normals,
                        eval_every=exploration.eval_every, mesh_resolution=exploration.mesh_resolution)
 
@@ -58,14 +77,18 @@ def _reference(config: BackendConfig):
     """The true surface in the object frame: the given mesh, the simulated object, the emulated sphere."""
     import trimesh
 
+    import objects
+
     if config.object.reference_mesh is not None:
         path = config.object.reference_mesh
         if not path.exists():
             raise FileNotFoundError(f"object.reference_mesh: {path} does not exist")
-        return trimesh.load(path, force="mesh")
+        try:
+            return objects.load(path, scale=objects.units_scale(config.object.units)).mesh
+        except ValueError as error:
+            raise ValueError(f"object.reference_mesh: {_config_units_hint(error)}") from error
     if config.robot.backend == "sim":
-        import objects
-        return objects.load(config.object.name).mesh
+        return objects.load(object_name(config)).mesh
     if config.robot.backend == "emulated":
         sphere = trimesh.creation.icosphere(subdivisions=4, radius=config.emulation.sphere_radius_m)
         sphere.apply_translation(config.emulation.sphere_offset_m)
@@ -101,6 +124,6 @@ def _simulated_backends(config: BackendConfig):
     """The simulated arm and sensor with the object fixed at ``object.centre_m``."""
     from explorer.simulation import build_scene
 
-    with build_scene(config.object.name, config.robot.spec, seed=config.exploration.seed,
+    with build_scene(object_name(config), config.robot.spec, seed=config.exploration.seed,
                      stand_centre_m=config.object.centre_m, yaw_steps=1, tilt_steps=1) as scene:
         yield scene.arm, scene.sensor

@@ -1,8 +1,10 @@
-"""Load a ground-truth object by registry name or from a user mesh file (OBJ, STL, PLY).
+"""Load a ground-truth object by registry name, generated name or from a user mesh file (OBJ, STL, PLY).
 
 A user mesh is checked (readable, non-empty, finite, plausible size in metres, watertight with
-outward normals), repaired where trimesh can do it (with a warning that says what changed) and
-written with a URDF into a cache folder so PyBullet can load it.
+outward normals), repaired where trimesh can do it (with a warning that says what changed), its
+overlapping or touching parts merged into their outer surface (boolean union, with a warning) and
+written with a URDF into a cache folder so PyBullet can load it. A generated object
+(``generated:mug/3``, :mod:`objects.generated`) is rebuilt from its name and written to the same cache.
 """
 from __future__ import annotations
 
@@ -17,10 +19,17 @@ import trimesh
 from objects.catalogue import DATA_DIR, SPECS, mesh_filename, names, spec, urdf_filename
 from objects.features import sharp_edges
 from objects.files import obj_text, urdf_text
+from objects.generated import building as generated
 from objects.model import ObjectModel
 
 MESH_SUFFIXES = (".obj", ".stl", ".ply")
-PLAUSIBLE_EXTENT_M = (0.005, 2.0)
+#: Largest side of a user mesh's bounding box that is accepted as a hand-held object, metres.
+PLAUSIBLE_EXTENT_M = (0.01, 1.0)
+#: Length units a mesh file may be in: the command-line flag ``--units`` and its factor to metres.
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254}
+UNIT_NAMES = {"m": "metres", "cm": "centimetres", "mm": "millimetres", "in": "inches"}
+#: A typical hand-held object's largest side, metres: unit guesses aim at it.
+TYPICAL_EXTENT_M = 0.1
 MERGE_TOLERANCE_M = 1e-6
 USER_RGBA = (0.75, 0.75, 0.75, 1.0)
 
@@ -31,20 +40,66 @@ def default_cache_dir() -> pathlib.Path:
     return pathlib.Path(base) / "tactile_explore" / "objects"
 
 
+def units_scale(units: str) -> float:
+    """Factor from ``units`` (a key of :data:`UNITS`: m, cm, mm, in) to metres; ValueError otherwise."""
+    if units not in UNITS:
+        raise ValueError(f"unknown length unit {units!r}; choose from {', '.join(UNITS)}")
+    return UNITS[units]
+
+
+def is_mesh_file_name(name_or_path) -> bool:
+    """Whether ``name_or_path`` names a mesh file (by suffix) rather than a registry or generated object."""
+    return (not generated.is_generated_name(name_or_path)
+            and pathlib.Path(name_or_path).suffix.lower() in MESH_SUFFIXES)
+
+
+def file_label(name_or_path: str | os.PathLike) -> str:
+    """A short name usable in file names: a registry name as is, ``generated:mug/3`` ->
+    ``generated-mug-3``, a mesh file by its stem."""
+    if generated.is_generated_name(name_or_path):
+        family, seed = generated.parse_name(name_or_path)
+        return f"generated-{family}-{seed}"
+    path = pathlib.Path(name_or_path)
+    return path.stem if path.suffix else str(name_or_path)
+
+
+def in_metres(name_or_path: str | os.PathLike, units: str = "m", *,
+              cache_dir: str | os.PathLike | None = None) -> str:
+    """The name to pass on for ``name_or_path`` whose mesh file is in ``units``.
+
+    Registry and generated names, and mesh files in metres, come back unchanged (a mesh file and a
+    generated name are checked: the errors of :func:`load`). A mesh file in
+    other units is loaded (checked, repaired) with that scale, and the path of its cleaned copy in
+    metres (in the cache) is returned, so code that only takes a name (the simulation, a sweep
+    worker, a resumed run) loads the right size. The command-line ``--units`` flag uses this.
+    """
+    factor = units_scale(units)
+    if is_mesh_file_name(name_or_path):
+        model = load(name_or_path, scale=factor, cache_dir=cache_dir)  # checks it now, not mid-run
+        return str(name_or_path) if factor == 1.0 else str(model.mesh_path)
+    if factor != 1.0:
+        raise ValueError(f"--units {units} applies to mesh files only, not to {str(name_or_path)!r}")
+    if generated.is_generated_name(name_or_path):
+        generated.parse_name(name_or_path)
+    return str(name_or_path)
+
+
 def load(name_or_path: str | os.PathLike, *, scale: float | None = None,
          cache_dir: str | os.PathLike | None = None) -> ObjectModel:
-    """The object called ``name_or_path`` in the registry, or the mesh in that file.
+    """The object called ``name_or_path`` in the registry, a generated object, or the mesh in a file.
 
     Parameters
     ----------
     name_or_path : str or path-like
-        A name from :func:`objects.names`, or a path to an .obj, .stl or .ply file.
+        A name from :func:`objects.names`, a generated name ``generated:<family>/<seed>`` (see
+        :mod:`objects.generated`), or a path to an .obj, .stl or .ply file.
     scale : float, optional
         Factor applied to a mesh file's coordinates to get metres (0.001 for a file in
-        millimetres). Not allowed with a registry name.
+        millimetres; ``--units mm`` on the command line). Not allowed with a registry or generated name.
     cache_dir : path-like, optional
-        Folder for the URDF (and cleaned OBJ) of a mesh file; default :func:`default_cache_dir`.
-        The sub-folder is named after the file's content and ``scale``, so it is deterministic.
+        Folder for the URDF (and cleaned OBJ) of a mesh file or generated object; default
+        :func:`default_cache_dir`. The sub-folder is named after the file's content and ``scale``
+        (or the generated name), so it is deterministic.
 
     Returns
     -------
@@ -54,8 +109,9 @@ def load(name_or_path: str | os.PathLike, *, scale: float | None = None,
     Raises
     ------
     ValueError
-        Unknown name (the message lists the valid ones), unsupported suffix, unreadable or empty
-        file, implausible size, or a mesh that is not watertight after repair.
+        Unknown name (the message lists the valid ones), malformed generated name or unknown family
+        (listed), unsupported suffix, unreadable or empty file, implausible size (the message names
+        the likely unit and the ``--units`` flag), or a mesh that is not watertight after repair.
     FileNotFoundError
         A path that does not exist.
     """
@@ -63,6 +119,10 @@ def load(name_or_path: str | os.PathLike, *, scale: float | None = None,
         if scale is not None:
             raise ValueError("scale applies to mesh files only, not to registry objects")
         return _load_registry(name_or_path)
+    if generated.is_generated_name(name_or_path):
+        if scale is not None:
+            raise ValueError("scale applies to mesh files only, not to generated objects")
+        return _load_generated(name_or_path, pathlib.Path(cache_dir) if cache_dir is not None else default_cache_dir())
     path = pathlib.Path(name_or_path)
     if path.suffix.lower() not in MESH_SUFFIXES:
         if isinstance(name_or_path, str) and os.sep not in name_or_path and not path.suffix:
@@ -92,6 +152,19 @@ def _load_registry(name: str) -> ObjectModel:
     return _model(name, spec(name).description, mesh, mesh_path, urdf_path)
 
 
+def _load_generated(name: str, cache_dir: pathlib.Path) -> ObjectModel:
+    family, seed = generated.parse_name(name)
+    mesh = generated.build_mesh(family, seed)
+    folder = generated.cache_folder(cache_dir, family, seed)
+    folder.mkdir(parents=True, exist_ok=True)
+    stem = f"{family}_{seed}"
+    mesh_path, urdf_path = folder / f"{stem}.obj", folder / f"{stem}.urdf"
+    _write_if_changed(mesh_path, obj_text(mesh, f"{name}: built by objects.generated "
+                                                f"(generator version {generated.GENERATOR_VERSION})"))
+    _write_if_changed(urdf_path, urdf_text(stem, mesh_path.name, generated.RGBA))
+    return _model(name, generated.description(family, seed, mesh), mesh, mesh_path, urdf_path)
+
+
 def _read_mesh(path: pathlib.Path) -> trimesh.Trimesh:
     """Triangles from ``path``, exactly coincident vertices merged (STL stores every corner apart)."""
     try:
@@ -106,22 +179,34 @@ def _read_mesh(path: pathlib.Path) -> trimesh.Trimesh:
 
 
 def _check_size(path: pathlib.Path, mesh: trimesh.Trimesh, scale: float) -> None:
-    """ValueError unless the largest side of the bounding box is a plausible object size in metres."""
+    """ValueError unless the largest side of the bounding box is a plausible hand-held size in metres.
+
+    The message names the unit the file is most likely in (the one that brings the largest side
+    nearest :data:`TYPICAL_EXTENT_M` within the accepted range) and the ``--units`` flag to say so.
+    """
     largest = float(np.max(mesh.extents))
     low, high = PLAUSIBLE_EXTENT_M
     if low <= largest <= high:
         return
-    hint = ""
-    for factor, unit in ((0.001, "millimetres"), (0.01, "centimetres"), (0.0254, "inches")):
-        if low <= largest * factor <= high and largest > high:
-            hint = f"; if the file is in {unit}, pass scale={scale * factor:g}"
-            break
-    raise ValueError(f"{path}: largest extent {largest:g} m (after scale={scale:g}) is outside the "
-                     f"plausible range {low:g}..{high:g} m for an object; coordinates must be metres{hint}")
+    raw = largest / scale  # in the file's own numbers
+    fits = [unit for unit, factor in UNITS.items()
+            if low <= raw * factor <= high and not np.isclose(factor, scale)]
+    hint = "; coordinates must be metres, or give the file's unit with --units"
+    if fits:
+        unit = min(fits, key=lambda u: abs(np.log(raw * UNITS[u] / TYPICAL_EXTENT_M)))
+        hint = (f"; the file is likely in {UNIT_NAMES[unit]}: pass --units {unit} "
+                f"(scale={UNITS[unit]:g} from Python), which makes it {_mm(raw * UNITS[unit])} mm")
+    raise ValueError(f"{path}: largest extent {_mm(largest)} mm (scale {scale:g}) is outside "
+                     f"{low * 1e3:g} mm .. {high * 1e3:g} mm for a hand-held object{hint}")
 
 
-def _repair(path: pathlib.Path, mesh: trimesh.Trimesh) -> list[str]:
-    """Make ``mesh`` watertight with outward normals in place; return what was changed.
+def _mm(length_m: float) -> str:
+    return f"{length_m * 1e3:.2f}" if length_m < 0.01 else f"{length_m * 1e3:.0f}"
+
+
+def _repair(path: pathlib.Path, mesh: trimesh.Trimesh, orient: bool = True) -> list[str]:
+    """Make ``mesh`` watertight with consistent winding, and with outward normals unless ``orient``
+    is False (a part that may be a cavity), in place; return what was changed.
 
     Raises ValueError naming the file when the mesh stays open or non-manifold.
     """
@@ -153,10 +238,77 @@ def _repair(path: pathlib.Path, mesh: trimesh.Trimesh) -> list[str]:
         repairs.append("made face winding consistent")
         if not mesh.is_winding_consistent:
             raise ValueError(f"{path}: face winding cannot be made consistent (non-orientable surface?)")
-    if mesh.volume < 0:
+    if orient and mesh.volume < 0:
         mesh.invert()
         repairs.append("inverted faces so normals point outward")
     return repairs
+
+
+def _remove_internal_face_pairs(mesh: trimesh.Trimesh) -> int:
+    """Drop both faces of every pair on the same three vertices with opposite winding: the shared
+    wall of two parts that touch along a face. Returns how many faces were removed."""
+    faces = np.asarray(mesh.faces)
+    _, inverse, counts = np.unique(np.sort(faces, axis=1), axis=0, return_inverse=True, return_counts=True)
+    first = np.argmin(faces, axis=1)[:, None]
+    rolled = np.take_along_axis(faces, (first + np.arange(3)) % 3, axis=1)  # same cycle, lowest index first
+    _, same_inverse, same_counts = np.unique(rolled, axis=0, return_inverse=True, return_counts=True)
+    paired = (counts[inverse.ravel()] == 2) & (same_counts[same_inverse.ravel()] == 1)
+    if not np.any(paired):
+        return 0
+    mesh.update_faces(~paired)
+    mesh.remove_unreferenced_vertices()
+    return int(np.sum(paired))
+
+
+def _parts_as_written(path: pathlib.Path, scale: float) -> list[trimesh.Trimesh] | None:
+    """The closed parts of a file whose parts touch (an OBJ of several objects keeps each part's own
+    vertices), or None when the file's own vertex sharing does not give two or more closed parts."""
+    try:
+        raw = trimesh.load(path, file_type=path.suffix.lower().lstrip("."), force="mesh", process=False)
+    except Exception:  # noqa: BLE001 - read once already; any failure here means "no parts"
+        return None
+    parts = raw.split(only_watertight=False)
+    for part in parts:
+        part.apply_scale(scale)
+        part.merge_vertices()
+    if len(parts) < 2 or not all(part.is_watertight for part in parts):
+        return None
+    return list(parts)
+
+
+def _merge_parts(path: pathlib.Path, parts: list[trimesh.Trimesh]) -> tuple[trimesh.Trimesh, list[str]]:
+    """The outer surface of several closed parts (a convex decomposition, say).
+
+    Parts with outward normals are united (manifold3d through trimesh); a part with inward normals
+    inside the others is a cavity and is subtracted. Returns the mesh and what was done (nothing
+    for one solid with cavities: that is a valid hollow object as it stands).
+    """
+    solids = [part for part in parts if part.volume > 0]
+    inward = [part for part in parts if part.volume <= 0]
+    outer = trimesh.boolean.union(solids, engine="manifold") if len(solids) > 1 else (solids or [None])[0]
+    cavities = [part for part in inward if outer is not None and np.all(outer.contains(part.vertices))]
+    flipped = [part for part in inward if not any(part is cavity for cavity in cavities)]
+    for part in flipped:  # an inside-out part, not a cavity
+        part.invert()
+    united = solids + flipped
+    if flipped:
+        outer = trimesh.boolean.union(united, engine="manifold") if len(united) > 1 else united[0]
+    if cavities:
+        for cavity in cavities:
+            cavity.invert()
+        outer = trimesh.boolean.difference([outer, *cavities], engine="manifold")
+    if not (outer.is_watertight and outer.volume > 0):
+        raise ValueError(f"{path}: the union of its {len(parts)} parts is not a closed surface; "
+                         "merge them in a mesh editor")
+    if len(united) < 2:
+        return outer, [f"turned {len(flipped)} inside-out part outward"] if flipped else []
+    what = (f"merged {len(united)} overlapping or touching parts into their outer surface (boolean union)"
+            + (f", {len(flipped)} of them turned outward first" if flipped else "")
+            + (f", {len(cavities)} inner shells kept as cavities" if cavities else ""))
+    pieces = sum(1 for body in outer.split(only_watertight=False) if body.volume > 0)
+    if pieces > 1:
+        what += f"; {pieces} separate pieces remain (they do not touch)"
+    return outer, [what]
 
 
 def _cache_folder(path: pathlib.Path, scale: float, cache_dir: pathlib.Path) -> pathlib.Path:
@@ -180,7 +332,21 @@ def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path) -> Obj
     if scale != 1.0:
         mesh.apply_scale(scale)
     _check_size(path, mesh, scale)
-    repairs = _repair(path, mesh)
+    removed = _remove_internal_face_pairs(mesh)
+    repairs = [f"removed {removed} coincident faces where parts touch"] if removed else []
+    # Parts meet at edges shared by more than two faces; split there (trimesh's face adjacency
+    # skips such edges), repair each part, then unite them.
+    parts = mesh.split(only_watertight=False)
+    if len(parts) > 1 and not all(part.is_watertight for part in parts):
+        parts = _parts_as_written(path, scale) or parts
+    if len(parts) < 2:
+        repairs += _repair(path, mesh)
+    else:
+        for part in parts:
+            repairs += _repair(path, part, orient=False)
+        mesh, merged = _merge_parts(path, parts)
+        repairs += merged
+    repairs = list(dict.fromkeys(repairs))
     if repairs:
         warnings.warn(f"{path}: repaired mesh: {'; '.join(repairs)}", stacklevel=3)
 

@@ -28,8 +28,10 @@ def main(argv: list[str] | None = None) -> int:
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--config", type=Path, help="rig configuration (.toml or .json); see explorer/config.py")
-    parser.add_argument("--object", help=f"registry name ({', '.join(objects.names())}) or a mesh file in "
-                                         f"metres (default banana; simulation only)")
+    parser.add_argument("--object", help=f"registry name ({', '.join(objects.names())}), generated:FAMILY/SEED "
+                                         f"or a mesh file (default banana; simulation only)")
+    parser.add_argument("--units", choices=("m", "cm", "mm", "in"), default="m",
+                        help="length unit of a mesh file given as the object (default m)")
     parser.add_argument("--robot", help=f"one of {', '.join(robots.names())} (default armar3; simulation only)")
     parser.add_argument("--strategy", choices=sorted(STRATEGIES), help="default variance")
     parser.add_argument("--touches", type=int, help="touch budget (default 50)")
@@ -55,11 +57,16 @@ def main(argv: list[str] | None = None) -> int:
     if args.config is None:
         from explorer.run import RunSettings, explore
 
-        settings = dataclasses.replace(RunSettings(object=args.object or "banana", robot=args.robot or "armar3",
+        try:
+            object_name = objects.in_metres(args.object or "banana", args.units)
+        except (ValueError, FileNotFoundError) as error:
+            parser.error(str(error))
+        settings = dataclasses.replace(RunSettings(object=object_name, robot=args.robot or "armar3",
                                                    gui=args.gui), **overrides)
         result = _with_progress(settings, lambda progress: explore(settings, args.out, progress, args.resume))
     else:
-        for flag, value in (("--object", args.object), ("--robot", args.robot), ("--gui", args.gui or None)):
+        for flag, value in (("--object", args.object), ("--robot", args.robot), ("--gui", args.gui or None),
+                            ("--units", None if args.units == "m" else args.units)):
             if value is not None:
                 parser.error(f"{flag} does not go with --config: set it in the configuration file")
         from explorer.config import load_config

@@ -78,7 +78,7 @@ def evaluate(name: str, n_contacts: int, seeds: int, noise: ContactNoise, resolu
             mesh = reconstruct(method, points, normals, bounds, resolution)
             errors.append(surface_error(mesh, model.mesh, sharp_edges=model.sharp_edges, seed=seed))
             if out is not None and seed == first_seed:
-                mesh.export(out / "meshes" / f"{name}_{method.replace(', ', '_').replace(' ', '_')}.ply")
+                mesh.export(out / "meshes" / f"{objects.file_label(name)}_{method.replace(', ', '_').replace(' ', '_')}.ply")
         position = np.array([e.position_rmse_mm for e in errors])
         edge = [e.edge_rmse_mm for e in errors if e.edge_rmse_mm is not None]
         rows.append(Row(name, method, seeds, float(position.mean()), float(position.std()),
@@ -114,7 +114,9 @@ def markdown(rows: list[Row], n_contacts: int, noise: ContactNoise) -> str:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--objects", default=",".join(objects.names()),
-                        help="comma-separated registry names or mesh files")
+                        help="comma-separated registry names, generated:FAMILY/SEED names or mesh files")
+    parser.add_argument("--units", choices=("m", "cm", "mm", "in"), default="m",
+                        help="length unit of the mesh files in --objects (default m)")
     parser.add_argument("--contacts", type=int, default=100)
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--first-seed", type=int, default=100,
@@ -131,6 +133,11 @@ def main(argv: list[str] | None = None) -> None:
         (args.out / "meshes").mkdir(parents=True, exist_ok=True)
     rows = []
     for name in args.objects.split(","):
+        if objects.is_mesh_file_name(name):
+            try:
+                name = objects.in_metres(name, args.units)
+            except (ValueError, FileNotFoundError) as error:
+                parser.error(str(error))
         rows.extend(evaluate(name, args.contacts, args.seeds, noise, args.resolution, args.out,
                              args.first_seed))
         print(f"done {name}", flush=True)

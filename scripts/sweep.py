@@ -18,7 +18,9 @@ def main(argv: list[str] | None = None) -> int:
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--objects", default="sphere,box",
-                        help="comma-separated registry names or mesh files (metres)")
+                        help="comma-separated registry names, generated:FAMILY/SEED names or mesh files")
+    parser.add_argument("--units", choices=("m", "cm", "mm", "in"), default="m",
+                        help="length unit of the mesh files in --objects (default m)")
     parser.add_argument("--strategies", default="random,variance", help="comma-separated")
     parser.add_argument("--seeds", type=int, default=5, help="number of seeds: 0 .. N-1")
     parser.add_argument("--touches", type=int, default=50, help="touch budget of each run")
@@ -37,13 +39,17 @@ def main(argv: list[str] | None = None) -> int:
     if args.workers < 1:
         parser.error("--workers must be at least 1")
     try:
-        config = SweepConfig(objects=_names(args.objects), strategies=_names(args.strategies),
+        import objects
+
+        names = tuple(objects.in_metres(n, args.units) if objects.is_mesh_file_name(n) else n
+                      for n in _names(args.objects))
+        config = SweepConfig(objects=names, strategies=_names(args.strategies),
                              seeds=tuple(range(args.seeds)),
                              normals=(True, False) if args.no_normals_too else (True,),
                              touches=args.touches, robot=args.robot, eval_every=args.eval_every,
                              mesh_resolution=args.mesh_resolution)
         report = run_sweep(config, args.out, workers=args.workers, ray_address=args.ray)
-    except (ValueError, ImportError) as exc:
+    except (ValueError, ImportError, FileNotFoundError) as exc:
         parser.error(str(exc))
     print(report.markdown_path.read_text())
     print(f"{len(report.executed)} runs executed, {len(report.skipped)} already finished, "

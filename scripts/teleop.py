@@ -20,7 +20,9 @@ def main(argv: list[str] | None = None) -> None:
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--object", required=True,
-                        help=f"registry name ({', '.join(objects.names())}) or a mesh file in metres")
+                        help=f"registry name ({', '.join(objects.names())}), generated:FAMILY/SEED or a mesh file")
+    parser.add_argument("--units", choices=("m", "cm", "mm", "in"), default="m",
+                        help="length unit of a mesh file given as the object (default m)")
     parser.add_argument("--device", default="keyboard", choices=("keyboard", "spacemouse"))
     parser.add_argument("--out", type=Path, default=Path("results/teleop"))
     parser.add_argument("--robot", default="armar3")
@@ -47,7 +49,8 @@ def main(argv: list[str] | None = None) -> None:
         return KeyboardDevice(context.key_events)
 
     try:
-        result = run_simulated_teleop(args.object, device, args.out, robot=args.robot, gui=not args.headless)
+        object_name = objects.in_metres(args.object, args.units)
+        result = run_simulated_teleop(object_name, device, args.out, robot=args.robot, gui=not args.headless)
     except ValueError as err:
         parser.error(str(err))
     suggestion = None if result.suggestion_m is None else [round(float(v), 4) for v in result.suggestion_m]

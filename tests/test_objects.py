@@ -295,7 +295,7 @@ def test_user_mesh_round_trip_writes_a_cached_urdf(tmp_path, suffix):
 def test_user_mesh_in_millimetres_needs_scale(tmp_path):
     path = tmp_path / "part.stl"
     trimesh.creation.box(extents=(120.0, 80.0, 60.0)).export(path)
-    with pytest.raises(ValueError, match=r"millimetres, pass scale=0\.001"):
+    with pytest.raises(ValueError, match=r"millimetres: pass --units mm \(scale=0\.001"):
         objects.load(path, cache_dir=tmp_path)
     model = objects.load(path, scale=0.001, cache_dir=tmp_path)
     np.testing.assert_allclose(model.extent_m, [0.12, 0.08, 0.06])

@@ -49,6 +49,7 @@ class SweepConfig:
 
     def __post_init__(self) -> None:
         import objects
+        import objects.generated as generated
         import robots
         from explorer.strategies import STRATEGIES
 
@@ -60,12 +61,16 @@ class SweepConfig:
             if len(set(values)) != len(values):
                 raise ValueError(f"{name} holds duplicates: {values!r}")
         for name in self.objects:
-            if name not in objects.names() and not Path(name).is_file():
+            if generated.is_generated_name(name):
+                generated.parse_name(name)  # raises naming the syntax or listing the families
+            elif name not in objects.names() and not Path(name).is_file():
                 raise ValueError(f"unknown object {name!r}: neither a registry name "
-                                 f"({', '.join(objects.names())}) nor an existing mesh file")
+                                 f"({', '.join(objects.names())}), a generated:FAMILY/SEED name "
+                                 "nor an existing mesh file")
         # Workers (Ray's especially) may start in another directory.
         object.__setattr__(self, "objects", tuple(
-            n if n in objects.names() else str(Path(n).resolve()) for n in self.objects))
+            n if n in objects.names() or generated.is_generated_name(n) else str(Path(n).resolve())
+            for n in self.objects))
         for name in self.strategies:
             if name not in STRATEGIES:
                 raise ValueError(f"unknown strategy {name!r}; choose from {', '.join(STRATEGIES)}")
@@ -111,9 +116,10 @@ class SweepRun:
 
 
 def object_label(name: str) -> str:
-    """A registry name as is; a mesh file by its stem."""
-    path = Path(name)
-    return path.stem if path.suffix else name
+    """A registry name as is; ``generated:mug/3`` as ``generated-mug-3``; a mesh file by its stem."""
+    import objects
+
+    return objects.file_label(name)
 
 
 def plan_runs(config: SweepConfig) -> list[SweepRun]:
