@@ -13,7 +13,7 @@ $(VENV)/.installed: setup.cfg pyproject.toml
 	$(PY) -m pip install --quiet --upgrade pip
 	# torch first and pinned: the CPU build (a range would pull a multi-GB CUDA build).
 	$(PY) -m pip install --quiet torch==2.13.0
-	$(PY) -m pip install --quiet -e '.[test,hardware,ray]'
+	$(PY) -m pip install --quiet -e '.[test,hardware,ray,viz]'
 	touch $@
 
 main: install

@@ -1,1 +1,73 @@
-"""explorer package."""
+"""Tactile exploration: the loop, strategies, planner, stand, rigs, sessions and their replay.
+
+Public API:
+
+* runs: :func:`explore` (simulated run from :class:`RunSettings`), :func:`run_on_rig` with a
+  :class:`Rig` (or :func:`open_rig` from a configuration file), :class:`RunResult`;
+* the loop and its parts: :class:`ExplorationLoop`, :class:`LoopConfig`, :class:`TouchRecord`,
+  :class:`ApproachPlanner`, :class:`PlannerConfig`, :class:`Positioner`, :class:`FixedStand`,
+  :class:`SimulatedStand`, :class:`StandPose`, :class:`ObjectPrior`, :class:`Touch`;
+* strategies: :class:`TouchStrategy` (subclass it), :class:`ExplorationState`,
+  :func:`make_strategy`, :data:`STRATEGIES`, :class:`VarianceStrategy`, :class:`RandomStrategy`,
+  :class:`UniformStrategy`;
+* watching and sessions: :class:`RunObserver`, :class:`RerunObserver` with :func:`open_stream`
+  (Rerun, the ``viz`` extra), :class:`RunRecorder`, :func:`read_session`,
+  :class:`SessionReplay` with :class:`ReplaySettings` (-> :class:`ReplayResult`);
+* :func:`reconstruction_errors` (what ``metrics.json`` reports), :func:`load_config`.
+
+Every name is imported on first use (module ``__getattr__``), so ``import explorer`` imports
+neither torch nor pybullet.
+"""
+from __future__ import annotations
+
+import importlib
+
+_LAZY = {
+    "explore": "explorer.run",
+    "run_on_rig": "explorer.run",
+    "RunSettings": "explorer.run",
+    "RunResult": "explorer.run",
+    "Rig": "explorer.run",
+    "object_prior": "explorer.run",
+    "open_rig": "explorer.rig",
+    "load_config": "explorer.config",
+    "ExplorationLoop": "explorer.loop",
+    "LoopConfig": "explorer.loop",
+    "TouchRecord": "explorer.loop",
+    "ApproachPlanner": "explorer.planner",
+    "PlannerConfig": "explorer.planner",
+    "Positioner": "explorer.positioner",
+    "FixedStand": "explorer.positioner",
+    "SimulatedStand": "explorer.positioner",
+    "StandPose": "explorer.positioner",
+    "ObjectPrior": "explorer.touch",
+    "Touch": "explorer.touch",
+    "TouchStrategy": "explorer.strategies",
+    "ExplorationState": "explorer.strategies",
+    "make_strategy": "explorer.strategies",
+    "STRATEGIES": "explorer.strategies",
+    "VarianceStrategy": "explorer.strategies",
+    "RandomStrategy": "explorer.strategies",
+    "UniformStrategy": "explorer.strategies",
+    "RunRecorder": "explorer.recording",
+    "RunObserver": "explorer.observer",
+    "RerunObserver": "explorer.rerun_view",
+    "open_stream": "explorer.rerun_view",
+    "read_session": "explorer.session",
+    "SessionReplay": "explorer.replay",
+    "ReplaySettings": "explorer.replay",
+    "ReplayResult": "explorer.replay",
+    "reconstruction_errors": "explorer.evaluation",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'explorer' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -8,6 +8,10 @@ import numpy as np
 
 #: Contacts within this distance of a surface point count as covering it.
 COVERAGE_RADIUS_M = 0.01
+#: The shape-reconstruction literature's metrics (:class:`reconstruction.metrics.ShapeMetrics`)
+#: that ``metrics.json``, the sweep tables and the reference tables carry beside the RMSEs.
+STANDARD_METRICS = ("chamfer_l1_mm", "chamfer_l2_mm", "fscore_1mm", "fscore_2mm", "fscore_5mm",
+                    "normal_consistency")
 
 
 def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray) -> dict:
@@ -21,7 +25,8 @@ def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray) 
     Returns
     -------
     dict
-        ``position_rmse_mm``, ``normal_rmse_deg``, ``edge_rmse_mm``, ``surface_error`` (all of
+        ``position_rmse_mm``, ``normal_rmse_deg``, ``edge_rmse_mm``, the ``STANDARD_METRICS``
+        (Chamfer L1 / L2 mm, F-score at 1 / 2 / 5 mm, normal consistency), ``surface_error`` (all of
         :func:`reconstruction.metrics.surface_error`), and with contacts ``coverage`` (fraction
         of the truth within ``COVERAGE_RADIUS_M`` of a contact), ``contact_normal_error_mean_deg``
         and ``contact_position_error_rms_mm`` (distance of the contacts to the truth).
@@ -31,7 +36,8 @@ def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray) 
 
     err = surface_error(mesh, truth)
     errors = dict(position_rmse_mm=err.position_rmse_mm, normal_rmse_deg=err.normal_rmse_deg,
-                  edge_rmse_mm=err.edge_rmse_mm, surface_error=asdict(err))
+                  edge_rmse_mm=err.edge_rmse_mm, **{k: getattr(err, k) for k in STANDARD_METRICS},
+                  surface_error=asdict(err))
     if len(points):
         _, distance, face = MeshProximity(truth).query(points)
         cosines = np.clip(np.sum(normals * truth.face_normals[face], axis=1), -1.0, 1.0)

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from explorer.loop import Recorder, TouchRecord
+from explorer.observer import RunObserver
 from explorer.session import SessionWriter
 
 CONTACTS_HEADER = "touch,x,y,z,nx,ny,nz,t_s,force_n,stand_yaw_rad,stand_tilt_rad\n"
@@ -36,15 +37,19 @@ class RunRecorder(Recorder):
         stored session metadata is kept (``metadata`` is then not checked against it).
     time_offset_s : float
         Added to every time written (device clock -> session clock), seconds.
+    observer : RunObserver, optional
+        Shown everything the recorder writes, on the session clock, after it is written.
     """
 
-    def __init__(self, out_dir: Path, metadata: dict, resume: bool = False, time_offset_s: float = 0.0):
+    def __init__(self, out_dir: Path, metadata: dict, resume: bool = False, time_offset_s: float = 0.0,
+                 observer: RunObserver | None = None):
         if not math.isfinite(time_offset_s):
             raise ValueError(f"time_offset_s must be finite, got {time_offset_s!r}")
         self.out_dir = Path(out_dir)
         self.out_dir.mkdir(parents=True, exist_ok=True)
         self.time_offset_s = float(time_offset_s)
         self.latest_time_s = 0.0  # the latest device time handed to the recorder, seconds
+        self.observer = observer or RunObserver()
         self.session = SessionWriter(self.out_dir / "session", None if resume else metadata, resume=resume)
         path = self.out_dir / "contacts.csv"
         fresh = not path.exists() or not resume
@@ -54,13 +59,16 @@ class RunRecorder(Recorder):
             self._flush()
 
     def readings(self, readings) -> None:
-        for reading in readings:
-            self.session.write_reading(self._shifted(reading))
-            self._saw(reading.t_s)
+        shifted = [self._shifted(reading) for reading in readings]
+        for reading, original in zip(shifted, readings):
+            self.session.write_reading(reading)
+            self._saw(original.t_s)
+        self.observer.readings(shifted)
 
     def joint_state(self, t_s: float, q: np.ndarray) -> None:
         self.session.write_joint_state(t_s + self.time_offset_s, q)
         self._saw(t_s)
+        self.observer.joint_state(t_s + self.time_offset_s, q)
 
     def touch(self, record: TouchRecord) -> None:
         kind = "touch" if record.kind == "contact" else ("miss" if record.kind == "miss" else record.kind)
@@ -77,19 +85,21 @@ class RunRecorder(Recorder):
             fields["free_space_m"] = np.asarray(record.free_space_m).tolist()
         self.session.write_event(kind, record.t_s + self.time_offset_s, **fields)
         self._saw(record.t_s)
-        if record.kind != "contact":
-            return
-        contact = self._shifted_contact(record.contact)
-        self.session.write_contact(contact)
-        self._contacts.write(contacts_csv_row(record, contact.t_s, contact.force_n))
-        self._flush()
+        if record.kind == "contact":
+            contact = self._shifted_contact(record.contact)
+            self.session.write_contact(contact)
+            self._contacts.write(contacts_csv_row(record, contact.t_s, contact.force_n))
+            self._flush()
+        self.observer.touch(record, record.t_s + self.time_offset_s)
 
     def event(self, kind: str, t_s: float, **fields) -> None:
         self.session.write_event(kind, t_s + self.time_offset_s, **fields)
         self._saw(t_s)
+        self.observer.event(kind, t_s + self.time_offset_s, fields)
 
     def reconstruction(self, mesh, n_contacts: int, t_s: float) -> None:
         self.session.write_reconstruction(mesh, n_contacts, t_s + self.time_offset_s)
+        self.observer.reconstruction(mesh, n_contacts, t_s + self.time_offset_s)
 
     def _saw(self, t_s: float) -> None:
         self.latest_time_s = max(self.latest_time_s, float(t_s))
@@ -106,6 +116,12 @@ class RunRecorder(Recorder):
                                    readings=tuple(self._shifted(r) for r in contact.readings))
 
     def close(self, error: BaseException | None = None) -> None:
+        try:
+            self.observer.close()
+        except Exception as exc:  # noqa: BLE001 - a viewer that failed must not cost the records
+            import warnings
+
+            warnings.warn(f"the run observer failed to close: {type(exc).__name__}: {exc}", RuntimeWarning)
         if not self._contacts.closed:
             self._contacts.close()
         if not self.session.closed:

@@ -25,6 +25,7 @@ import numpy as np
 from explorer.coverage import reachable_fraction
 from explorer.evaluation import jsonable, reconstruction_errors
 from explorer.loop import LOOP_SETTLING, ExplorationLoop, LoopConfig, TouchRecord
+from explorer.observer import ObservedStrategy
 from explorer.planner import ApproachPlanner, PlannerConfig
 from explorer.recording import RunRecorder
 from explorer.resume import check_resumable, load_recorded_run, resume_time_offset, rewrite_contacts_csv
@@ -106,21 +107,23 @@ class Rig:
     alignment: object | None = None
 
 
-def explore(settings: RunSettings, out_dir: Path, progress=None, resume: bool = False) -> RunResult:
+def explore(settings: RunSettings, out_dir: Path, progress=None, resume: bool = False,
+            observer=None) -> RunResult:
     """Run one simulated exploration and write its outputs to ``out_dir``.
 
     With ``resume=True`` the run already in ``out_dir`` is continued to ``settings.touches``
-    (see :func:`run_on_rig`).
+    (see :func:`run_on_rig`); ``observer`` as there.
     """
     with build_scene(settings.object, settings.robot, seed=settings.seed, gui=settings.gui) as scene:
         truth = scene.object_model.mesh
         rig = Rig(scene.arm, scene.sensor, scene.kinematics, scene.stand, object_prior(truth), truth,
                   dict(robot=settings.robot, sensor="simulated BNO055 + BMP280 under polyurethane",
                        object=settings.object, backend="simulation"))
-        return run_on_rig(rig, settings, out_dir, progress, resume)
+        return run_on_rig(rig, settings, out_dir, progress, resume, observer)
 
 
-def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, resume: bool = False) -> RunResult:
+def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, resume: bool = False,
+               observer=None) -> RunResult:
     """Explore with ``rig`` and write the run's outputs to ``out_dir`` (see the module docstring).
 
     Whatever stops the run (a device that stops answering, Ctrl-C), what was recorded stays on
@@ -134,6 +137,8 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
         (:mod:`explorer.resume`), the GPIS and the strategy's bookkeeping are rebuilt from them,
         and the loop goes on to ``settings.touches``, appending to the same files. Settings other
         than the budget and the evaluation must be the recorded ones.
+    observer : explorer.observer.RunObserver, optional
+        Shown the run as it happens (e.g. :class:`explorer.rerun_view.RerunObserver`).
     """
     from robots.ik import PadIK
 
@@ -155,10 +160,13 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
         check_resumable(recorded.metadata.get("configuration", {}), jsonable(configuration))
         time_offset_s = resume_time_offset(recorded.end_time_s, rig.robot.time_s())
         rewrite_contacts_csv(out_dir, recorded.touches)
-    recorder = RunRecorder(out_dir, metadata, resume=resume, time_offset_s=time_offset_s)
+    recorder = RunRecorder(out_dir, metadata, resume=resume, time_offset_s=time_offset_s, observer=observer)
+    strategy = make_strategy(settings.strategy, settings.seed)
+    if observer is not None:
+        observer.run_started(rig, gpis, metadata)
+        strategy = ObservedStrategy(strategy, observer, lambda: recorder.latest_time_s + recorder.time_offset_s)
     loop = ExplorationLoop(rig.robot, rig.sensor, rig.kinematics, planner, rig.positioner,
-                           make_strategy(settings.strategy, settings.seed), prior, gpis,
-                           loop_settings, recorder, alignment=rig.alignment)
+                           strategy, prior, gpis, loop_settings, recorder, alignment=rig.alignment)
     if recorded is not None:
         loop.restore(recorded.touches)
         recorder.event("resumed", rig.robot.time_s(), time_offset_s=time_offset_s,

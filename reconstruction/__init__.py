@@ -1,1 +1,51 @@
-"""reconstruction package."""
+"""Surface reconstruction from contacts: GPIS, meshing, metrics, figures.
+
+Public API:
+
+* :class:`GPIS` (fit / add contacts, mean, gradient, variance, mesh) and :class:`VarianceTracker`;
+  kernels :class:`ThinPlateKernel`, :class:`ReferenceThinPlateKernel`,
+  :class:`SquaredExponentialKernel`, :class:`QuadraticTrend`, :data:`KERNEL_NAMES`;
+* :func:`mesh_zero_level` (coarse-to-fine marching cubes of any implicit function);
+* metrics: :func:`surface_error` (-> :class:`SurfaceError`), :func:`shape_metrics`,
+  :func:`point_cloud_metrics` (-> :class:`ShapeMetrics`: Chamfer, F-score, normal consistency),
+  :func:`contact_coverage`;
+* test data: :func:`sample_contacts` with :class:`ContactNoise`.
+
+Every name is imported on first use (module ``__getattr__``), so ``import reconstruction`` does
+not import torch.
+"""
+from __future__ import annotations
+
+import importlib
+
+_LAZY = {
+    "GPIS": "reconstruction.gpis",
+    "VarianceTracker": "reconstruction.gpis",
+    "KERNEL_NAMES": "reconstruction.gpis",
+    "ThinPlateKernel": "reconstruction.kernels",
+    "ReferenceThinPlateKernel": "reconstruction.kernels",
+    "SquaredExponentialKernel": "reconstruction.kernels",
+    "QuadraticTrend": "reconstruction.kernels",
+    "mesh_zero_level": "reconstruction.meshing",
+    "SurfaceError": "reconstruction.metrics",
+    "ShapeMetrics": "reconstruction.metrics",
+    "FSCORE_THRESHOLDS_M": "reconstruction.metrics",
+    "surface_error": "reconstruction.metrics",
+    "shape_metrics": "reconstruction.metrics",
+    "point_cloud_metrics": "reconstruction.metrics",
+    "contact_coverage": "reconstruction.metrics",
+    "ContactNoise": "reconstruction.synthetic_contacts",
+    "sample_contacts": "reconstruction.synthetic_contacts",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'reconstruction' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

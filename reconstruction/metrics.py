@@ -2,6 +2,11 @@
 
 Both meshes are trimesh.Trimesh in the same frame, metres. Errors are reported in millimetres and
 degrees (report units); everything inside is SI.
+
+Besides the project's own symmetric RMSEs, the metrics of the shape-reconstruction literature
+(Chamfer distance in its L1 and L2 conventions, F-score at 1 / 2 / 5 mm, normal consistency) come
+from the same samples: :func:`surface_error` against the exact surfaces, :func:`point_cloud_metrics`
+for two sampled point clouds (nearest sample instead of nearest surface point).
 """
 from __future__ import annotations
 
@@ -37,6 +42,8 @@ class SurfaceError:
         there are no sharp edges.
     n_samples : int
         Surface samples drawn in each direction.
+    chamfer_l1_mm, chamfer_l2_mm, fscore_1mm, fscore_2mm, fscore_5mm, normal_consistency : float
+        The standard metrics of :class:`ShapeMetrics`, from the same samples.
     """
 
     position_rmse_mm: float
@@ -48,6 +55,133 @@ class SurfaceError:
     hausdorff_mm: float
     edge_rmse_mm: float | None
     n_samples: int
+    chamfer_l1_mm: float
+    chamfer_l2_mm: float
+    fscore_1mm: float
+    fscore_2mm: float
+    fscore_5mm: float
+    normal_consistency: float
+
+
+#: Distance thresholds of the F-scores, metres (1, 2 and 5 mm).
+FSCORE_THRESHOLDS_M = (0.001, 0.002, 0.005)
+
+
+@dataclass(frozen=True)
+class ShapeMetrics:
+    """The shape-reconstruction literature's metrics between a reconstruction R and the truth T.
+
+    From n samples on R and m samples on T (``surface_error``: n = m = ``n_samples``, area-uniform)
+    and each sample's Euclidean distance to the other surface, unsquared:
+    d_R (reconstruction -> truth, "accuracy") and d_T (truth -> reconstruction, "completeness").
+
+    Attributes
+    ----------
+    chamfer_l1_mm : float
+        (mean(d_R) + mean(d_T)) / 2, mm: the mean of the two directional mean distances, not
+        squared (Occupancy Networks' "Chamfer-L1"). Twice this is the sum convention
+        (``point_cloud_utils.chamfer_distance``).
+    chamfer_l2_mm : float
+        sqrt((mean(d_R^2) + mean(d_T^2)) / 2), mm: the root of the mean of the two directional mean
+        squared distances, so a constant offset d gives d in both conventions. Papers that report
+        the squared form: mean-of-both convention = chamfer_l2_mm^2 (mm^2); sum-of-both convention
+        (pytorch3d ``chamfer_distance``, DeepSDF) = 2 chamfer_l2_mm^2 (mm^2).
+    fscore_1mm, fscore_2mm, fscore_5mm : float in [0, 1]
+        F-score at threshold t (Tatarchenko et al. 2019): precision P = fraction of reconstruction
+        samples with d_R <= t, recall Rc = fraction of truth samples with d_T <= t,
+        F = 2 P Rc / (P + Rc), 0 when both are 0.
+    precision, recall : dict[str, float]
+        P and Rc per threshold, keyed ``"1mm"``, ``"2mm"``, ``"5mm"``.
+    normal_consistency : float in [0, 1]
+        (mean |cos a_R| + mean |cos a_T|) / 2, a = angle between a sample's normal and the normal at
+        its nearest point on the other surface; unoriented (|cos|), so an inside-out surface scores
+        like a correct one (the oriented comparison is ``normal_rmse_deg``).
+    n_reconstruction_samples, n_truth_samples : int
+        n and m.
+    """
+
+    chamfer_l1_mm: float
+    chamfer_l2_mm: float
+    fscore_1mm: float
+    fscore_2mm: float
+    fscore_5mm: float
+    precision: dict
+    recall: dict
+    normal_consistency: float
+    n_reconstruction_samples: int
+    n_truth_samples: int
+
+
+def shape_metrics(reconstruction_to_truth_m: np.ndarray, truth_to_reconstruction_m: np.ndarray,
+                  reconstruction_to_truth_cos: np.ndarray, truth_to_reconstruction_cos: np.ndarray,
+                  ) -> ShapeMetrics:
+    """:class:`ShapeMetrics` from the per-sample distances and normal cosines of both directions.
+
+    Parameters
+    ----------
+    reconstruction_to_truth_m : (n,) float
+        Distance of each reconstruction sample to the truth, metres, unsquared.
+    truth_to_reconstruction_m : (m,) float
+        Distance of each truth sample to the reconstruction, metres, unsquared.
+    reconstruction_to_truth_cos, truth_to_reconstruction_cos : (n,) and (m,) float
+        Cosine between each sample's unit normal and the normal at its nearest point on the other
+        surface (the sign is dropped).
+    """
+    d_r = np.asarray(reconstruction_to_truth_m, float)
+    d_t = np.asarray(truth_to_reconstruction_m, float)
+    if d_r.ndim != 1 or d_t.ndim != 1 or not len(d_r) or not len(d_t):
+        raise ValueError("shape_metrics needs a non-empty 1-D distance array per direction")
+    if len(reconstruction_to_truth_cos) != len(d_r) or len(truth_to_reconstruction_cos) != len(d_t):
+        raise ValueError("one normal cosine per distance sample is needed in each direction")
+    fscores, precision, recall = [], {}, {}
+    for threshold in FSCORE_THRESHOLDS_M:
+        key = f"{threshold * 1e3:g}mm"
+        p, r = float(np.mean(d_r <= threshold)), float(np.mean(d_t <= threshold))
+        precision[key], recall[key] = p, r
+        fscores.append(2 * p * r / (p + r) if p + r > 0 else 0.0)
+    nc = (np.mean(np.abs(reconstruction_to_truth_cos)) + np.mean(np.abs(truth_to_reconstruction_cos))) / 2
+    return ShapeMetrics(
+        chamfer_l1_mm=1e3 * float(d_r.mean() + d_t.mean()) / 2,
+        chamfer_l2_mm=1e3 * float(np.sqrt((np.mean(d_r ** 2) + np.mean(d_t ** 2)) / 2)),
+        fscore_1mm=fscores[0], fscore_2mm=fscores[1], fscore_5mm=fscores[2],
+        precision=precision, recall=recall, normal_consistency=float(np.clip(nc, 0.0, 1.0)),
+        n_reconstruction_samples=len(d_r), n_truth_samples=len(d_t))
+
+
+def _checked_cloud(points: np.ndarray, normals: np.ndarray, role: str) -> tuple[np.ndarray, np.ndarray]:
+    points, normals = np.asarray(points, float), np.asarray(normals, float)
+    if points.ndim != 2 or points.shape[1] != 3 or not len(points) or normals.shape != points.shape:
+        raise ValueError(f"{role} points and normals must both have shape (n, 3), n > 0; got "
+                         f"{points.shape} and {normals.shape}")
+    if not (np.all(np.isfinite(points)) and np.all(np.isfinite(normals))):
+        raise ValueError(f"{role} points or normals are not finite")
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    if np.any(length == 0):
+        raise ValueError(f"{role} normals include zero vectors")
+    return points, normals / length
+
+
+def point_cloud_metrics(reconstruction_points: np.ndarray, reconstruction_normals: np.ndarray,
+                        truth_points: np.ndarray, truth_normals: np.ndarray) -> ShapeMetrics:
+    """:class:`ShapeMetrics` between two sampled surfaces (e.g. samples of meshes made elsewhere).
+
+    Each point's distance is to the nearest point of the other cloud (k-d tree), and normal
+    consistency uses that nearest point's normal; otherwise as :class:`ShapeMetrics`. Sampling
+    both surfaces densely (point spacing well below the F-score thresholds) keeps the
+    nearest-sample distance close to the nearest-surface distance of :func:`surface_error`.
+
+    Parameters
+    ----------
+    reconstruction_points, reconstruction_normals : (n, 3) float
+        Same frame as the truth, metres; normals need not be unit length (they are normalised).
+    truth_points, truth_normals : (m, 3) float
+    """
+    rp, rn = _checked_cloud(reconstruction_points, reconstruction_normals, "reconstruction")
+    tp, tn = _checked_cloud(truth_points, truth_normals, "truth")
+    d_r, to_truth = cKDTree(tp).query(rp, k=1)
+    d_t, to_reconstruction = cKDTree(rp).query(tp, k=1)
+    return shape_metrics(d_r, d_t, np.einsum("nd,nd->n", rn, tn[to_truth]),
+                         np.einsum("nd,nd->n", tn, rn[to_reconstruction]))
 
 
 def _check_mesh(mesh: object, role: str) -> None:
@@ -74,12 +208,13 @@ def _angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _directional(source: trimesh.Trimesh, target: trimesh.Trimesh, target_proximity: MeshProximity,
-                 n_samples: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Distances (m) and normal angles (deg) from area-uniform samples on ``source`` to ``target``."""
+                 n_samples: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Distances (m), normal angles (deg) and normal cosines from area-uniform samples on ``source``
+    to ``target``."""
     points, source_faces = sample_surface(source, n_samples, rng)
     _, distance, target_faces = target_proximity.query(points)
-    angle = _angle_deg(np.asarray(source.face_normals)[source_faces], np.asarray(target.face_normals)[target_faces])
-    return np.asarray(distance, float), angle
+    a, b = np.asarray(source.face_normals)[source_faces], np.asarray(target.face_normals)[target_faces]
+    return np.asarray(distance, float), _angle_deg(a, b), np.einsum("nd,nd->n", a, b)
 
 
 def _rms(values: np.ndarray) -> float:
@@ -104,6 +239,10 @@ def surface_error(reconstruction: trimesh.Trimesh, truth: trimesh.Trimesh, n_sam
     * ``edge_rmse_mm``: ``n_edge_samples`` points uniformly distributed by length along the truth's
       sharp edges, RMS of their distance to the closest point on the reconstruction; None when there
       are no sharp edges.
+    * ``chamfer_l1_mm``, ``chamfer_l2_mm``, ``fscore_*mm``, ``normal_consistency``: the same two
+      sample sets, distances and face normals fed to :func:`shape_metrics` (definitions in
+      :class:`ShapeMetrics`): ``n_samples`` samples per direction, distances to the exact closest
+      surface point (not to the other surface's samples).
 
     Normals are compared as oriented vectors, so an inside-out reconstruction scores ~180 degrees.
     At a sharp edge the closest point may lie on either neighbouring face; that ambiguity shows up in
@@ -148,8 +287,10 @@ def surface_error(reconstruction: trimesh.Trimesh, truth: trimesh.Trimesh, n_sam
 
     rng = np.random.default_rng(seed)
     to_truth, to_reconstruction = MeshProximity(truth), MeshProximity(reconstruction)
-    forward_distance, forward_angle = _directional(reconstruction, truth, to_truth, n_samples, rng)
-    backward_distance, backward_angle = _directional(truth, reconstruction, to_reconstruction, n_samples, rng)
+    forward_distance, forward_angle, forward_cos = _directional(reconstruction, truth, to_truth, n_samples, rng)
+    backward_distance, backward_angle, backward_cos = _directional(truth, reconstruction, to_reconstruction,
+                                                                   n_samples, rng)
+    standard = shape_metrics(forward_distance, backward_distance, forward_cos, backward_cos)
 
     edge_rmse_mm = None
     lengths = np.linalg.norm(sharp_edges[:, 1] - sharp_edges[:, 0], axis=1) if len(sharp_edges) else np.zeros(0)
@@ -170,6 +311,12 @@ def surface_error(reconstruction: trimesh.Trimesh, truth: trimesh.Trimesh, n_sam
         hausdorff_mm=1e3 * float(max(forward_distance.max(), backward_distance.max())),
         edge_rmse_mm=edge_rmse_mm,
         n_samples=n_samples,
+        chamfer_l1_mm=standard.chamfer_l1_mm,
+        chamfer_l2_mm=standard.chamfer_l2_mm,
+        fscore_1mm=standard.fscore_1mm,
+        fscore_2mm=standard.fscore_2mm,
+        fscore_5mm=standard.fscore_5mm,
+        normal_consistency=standard.normal_consistency,
     )
 
 

@@ -3,6 +3,7 @@
     tactile-explore --object banana --touches 50 --out results/banana       # simulation
     tactile-explore --config rig.toml --out results/mug                     # configured rig
     tactile-explore --config rig.toml --out results/mug --resume            # go on after a stop
+    tactile-explore --object banana --touches 20 --rerun run.rrd            # also log to Rerun
 
 Without ``--config`` the object is explored in simulation on a turntable-and-tilt stand. With
 ``--config`` the robot, sensor, object and exploration settings come from the file
@@ -24,6 +25,7 @@ SUMMARY_KEYS = ("touches", "contacts", "misses", "position_rmse_mm", "normal_rms
 def main(argv: list[str] | None = None) -> int:
     import objects
     import robots
+    from explorer.rerun_view import add_rerun_argument, observer_from_argument
     from explorer.strategies import STRATEGIES
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -41,6 +43,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--resume", action="store_true",
                         help="continue the stopped run in --out from its recorded contacts")
     parser.add_argument("--gui", action="store_true", help="show the PyBullet window (simulation only)")
+    add_rerun_argument(parser)
     args = parser.parse_args(argv)
     if args.touches is not None and args.touches < 1:
         parser.error("--touches must be at least 1")
@@ -48,6 +51,7 @@ def main(argv: list[str] | None = None) -> int:
                  if v is not None}
     if args.no_normals:
         overrides["use_normals"] = False
+    observer = observer_from_argument(parser, args.rerun, "tactile-explore")
 
     import torch
 
@@ -63,7 +67,8 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(str(error))
         settings = dataclasses.replace(RunSettings(object=object_name, robot=args.robot or "armar3",
                                                    gui=args.gui), **overrides)
-        result = _with_progress(settings, lambda progress: explore(settings, args.out, progress, args.resume))
+        result = _with_progress(settings, lambda progress: explore(settings, args.out, progress, args.resume,
+                                                                          observer))
     else:
         for flag, value in (("--object", args.object), ("--robot", args.robot), ("--gui", args.gui or None),
                             ("--units", None if args.units == "m" else args.units)):
@@ -81,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
 
         def run(progress):
             with open_rig(config) as rig:
-                return run_on_rig(rig, settings, args.out, progress, args.resume)
+                return run_on_rig(rig, settings, args.out, progress, args.resume, observer)
 
         result = _with_progress(settings, run)
     if result is None:

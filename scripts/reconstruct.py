@@ -2,6 +2,7 @@
 
     tactile-reconstruct results/explore/session --out results/replay --start-threshold-pa 150
     tactile-reconstruct results/teleop --out results/teleop-replay --no-normals
+    tactile-reconstruct results/explore --rerun explore.rrd                 # look at it in Rerun
 
 Autonomous and teleop sessions alike (explorer/replay.py says how each is detected again).
 """
@@ -13,11 +14,12 @@ from pathlib import Path
 
 
 def main(argv: list[str] | None = None) -> None:
+    from explorer.rerun_view import add_rerun_argument, observer_from_argument
     from reconstruction.gpis import KERNEL_NAMES
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("session", type=Path, help="a session directory (or the run directory holding it)")
-    parser.add_argument("--out", type=Path, required=True, help="output directory")
+    parser.add_argument("--out", type=Path, help="output directory (needed unless --rerun is given)")
     parser.add_argument("--kernel", default="thin_plate", choices=KERNEL_NAMES)
     parser.add_argument("--noise", type=float, help="GPIS value noise, metres")
     parser.add_argument("--normal-noise", type=float, help="GPIS normal noise (per gradient component)")
@@ -25,15 +27,29 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--start-threshold-pa", type=float, help="contact start threshold, Pa above baseline")
     parser.add_argument("--end-threshold-pa", type=float, help="contact end threshold, Pa above baseline")
     parser.add_argument("--resolution", type=int, help="mesh grid samples along the longest side")
+    add_rerun_argument(parser)
     args = parser.parse_args(argv)
     if not args.session.is_dir():
         parser.error(f"session directory {args.session} does not exist")
+    if args.out is None and args.rerun is None:
+        parser.error("give --out DIR (replay outputs), --rerun [FILE.rrd] (the session in Rerun), or both")
+    observer = observer_from_argument(parser, args.rerun, "tactile-reconstruct")
 
     import torch
 
     from explorer.replay import ReplaySettings, replay
 
     torch.set_num_threads(1)  # small tensors: extra threads only add synchronisation
+    if observer is not None:
+        from explorer.rerun_view import log_session
+
+        try:
+            touches = log_session(args.session, observer, use_normals=False if args.no_normals else None)
+        except ValueError as err:
+            parser.error(str(err))
+        print(f"logged {touches} touches to " + (args.rerun or "the Rerun viewer"))
+    if args.out is None:
+        return
     try:
         settings = ReplaySettings(
             start_threshold_pa=args.start_threshold_pa, end_threshold_pa=args.end_threshold_pa,

@@ -17,6 +17,7 @@ from pathlib import Path
 
 def main(argv: list[str] | None = None) -> None:
     import objects
+    from explorer.rerun_view import add_rerun_argument, observer_from_argument
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--object", required=True,
@@ -28,11 +29,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--robot", default="armar3")
     parser.add_argument("--headless", action="store_true", help="no window; needs --script")
     parser.add_argument("--script", type=Path, help="JSON script of timed commands (replaces the device)")
+    add_rerun_argument(parser)
     args = parser.parse_args(argv)
     if args.headless and args.script is None:
         parser.error("--headless needs --script (nobody can steer without a window)")
     if args.script is not None and not args.script.is_file():
         parser.error(f"script file {args.script} does not exist")
+
+    observer = observer_from_argument(parser, args.rerun, "tactile-teleop", surface_every=1)
 
     import torch
 
@@ -50,7 +54,8 @@ def main(argv: list[str] | None = None) -> None:
 
     try:
         object_name = objects.in_metres(args.object, args.units)
-        result = run_simulated_teleop(object_name, device, args.out, robot=args.robot, gui=not args.headless)
+        result = run_simulated_teleop(object_name, device, args.out, robot=args.robot, gui=not args.headless,
+                                      observer=observer)
     except ValueError as err:
         parser.error(str(err))
     suggestion = None if result.suggestion_m is None else [round(float(v), 4) for v in result.suggestion_m]

@@ -47,6 +47,7 @@ def test_a_failing_run_is_recorded_and_the_others_finish(pool_sweep):
         assert rows[name]["completed"] and rows[name]["error"] is None
         assert rows[name]["touches"] == 4 and rows[name]["contacts"] >= 3
         assert 0 < rows[name]["position_rmse_mm"] < 3.0
+        assert 0 < rows[name]["chamfer_l1_mm"] < 3.0 and 0 < rows[name]["fscore_5mm"] <= 1.0
         assert rows[name]["touches_to_3mm"] == 4
     for name in BROKEN_RUNS:
         assert not rows[name]["completed"]
@@ -102,9 +103,14 @@ def test_the_summary_equals_statistics_computed_from_the_csv(pool_sweep):
     coverage = [float(r["coverage"]) for r in finished]
     reached = [float(r["touches_to_3mm"]) for r in finished if r["touches_to_3mm"]]
     assert len(finished) == 2 and statistics.pstdev(position) > 0
+    def mean_of(key, digits):
+        return f"{statistics.fmean(float(r[key]) for r in finished):.{digits}f}"
+
     expected = ["sphere", "random", "yes", "2/2",
                 f"{statistics.fmean(position):.2f} +- {statistics.pstdev(position):.2f}",
                 f"{statistics.fmean(angle):.1f} +- {statistics.pstdev(angle):.1f}",
+                mean_of("chamfer_l1_mm", 2), mean_of("chamfer_l2_mm", 2), mean_of("fscore_1mm", 3),
+                mean_of("fscore_2mm", 3), mean_of("fscore_5mm", 3), mean_of("normal_consistency", 3),
                 f"{statistics.fmean(coverage):.3f}", f"{statistics.fmean(reached):.1f} (2/2)"]
     table = [line.strip("|").split("|") for line in report.markdown_path.read_text().splitlines()
              if line.startswith("| sphere ")]

@@ -14,13 +14,16 @@ from typing import Sequence
 
 import numpy as np
 
+from explorer.evaluation import STANDARD_METRICS
+
 #: Error level of the ``touches_to_3mm`` column, millimetres.
 TARGET_RMSE_MM = 3.0
 
 COLUMNS = ("object", "strategy", "normals", "seed", "touches", "contacts", "position_rmse_mm",
-           "normal_rmse_deg", "coverage", "wall_time_s", "touches_to_3mm", "completed", "error", "run")
-NUMERIC = ("touches", "contacts", "position_rmse_mm", "normal_rmse_deg", "coverage", "wall_time_s",
-           "touches_to_3mm")
+           "normal_rmse_deg", *STANDARD_METRICS, "coverage", "wall_time_s", "touches_to_3mm", "completed",
+           "error", "run")
+NUMERIC = ("touches", "contacts", "position_rmse_mm", "normal_rmse_deg", *STANDARD_METRICS, "coverage",
+           "wall_time_s", "touches_to_3mm")
 
 
 def touches_to_reach(error_curve: Sequence[dict], target_mm: float = TARGET_RMSE_MM) -> int | None:
@@ -78,8 +81,8 @@ def read_csv(path: Path) -> list[dict]:
         out["completed"] = row["completed"] == "true"
         out["seed"] = int(row["seed"])
         out["error"] = row["error"] or None
-        for key in NUMERIC:
-            out[key] = None if row[key] == "" else float(row[key])
+        for key in NUMERIC:  # a table written before a column existed reads it as empty
+            out[key] = None if row.get(key, "") in ("", None) else float(row[key])
         parsed.append(out)
     return parsed
 
@@ -89,7 +92,8 @@ class SummaryRow:
     """One object x strategy x normals group of the summary; statistics over finished seeds.
 
     Errors are mean and population standard deviation (NaN where no seed finished);
-    ``touches_to_target_mean`` averages the seeds that reached the target (NaN where none did).
+    ``touches_to_target_mean`` averages the seeds that reached the target (NaN where none did);
+    ``standard`` holds the mean of each of ``STANDARD_METRICS`` (NaN where no seed has it).
     """
 
     object: str
@@ -104,6 +108,7 @@ class SummaryRow:
     coverage_mean: float
     reached_target: int
     touches_to_target_mean: float
+    standard: dict
 
 
 def summarise(rows: Sequence[dict]) -> list[SummaryRow]:
@@ -119,7 +124,8 @@ def summarise(rows: Sequence[dict]) -> list[SummaryRow]:
         reached = _values(done, "touches_to_3mm")
         summary.append(SummaryRow(
             obj, strategy, normals, len(members), len(done), _mean(position), _std(position),
-            _mean(angle), _std(angle), _mean(_values(done, "coverage")), len(reached), _mean(reached)))
+            _mean(angle), _std(angle), _mean(_values(done, "coverage")), len(reached), _mean(reached),
+            {key: _mean(_values(done, key)) for key in STANDARD_METRICS}))
     return summary
 
 
@@ -133,15 +139,23 @@ def write_markdown(summary: Sequence[SummaryRow], rows: Sequence[dict], path: Pa
         f"Mean +- population std over the seeds that finished. Touches to {TARGET_RMSE_MM:g} mm: "
         "mean over the seeds whose error curve reached it (how many of them in brackets).",
         "",
-        "| object | strategy | normals | finished | position RMSE (mm) | normal RMSE (deg) | coverage "
+        "Chamfer L1 / L2 (mm), F-score at 1 / 2 / 5 mm and normal consistency: means over the same "
+        "seeds, defined in `reconstruction.metrics.ShapeMetrics`.",
+        "",
+        "| object | strategy | normals | finished | position RMSE (mm) | normal RMSE (deg) | Chamfer L1 (mm) "
+        "| Chamfer L2 (mm) | F@1mm | F@2mm | F@5mm | normal consistency | coverage "
         f"| touches to {TARGET_RMSE_MM:g} mm |",
-        "|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for s in summary:
         lines.append(
             f"| {s.object} | {s.strategy} | {'yes' if s.normals else 'no'} | {s.completed}/{s.runs} "
             f"| {_pm(s.position_rmse_mm_mean, s.position_rmse_mm_std)} "
-            f"| {_pm(s.normal_rmse_deg_mean, s.normal_rmse_deg_std, 1)} | {_fmt(s.coverage_mean, 3)} "
+            f"| {_pm(s.normal_rmse_deg_mean, s.normal_rmse_deg_std, 1)} "
+            f"| {_fmt(s.standard['chamfer_l1_mm'])} | {_fmt(s.standard['chamfer_l2_mm'])} "
+            f"| {_fmt(s.standard['fscore_1mm'], 3)} | {_fmt(s.standard['fscore_2mm'], 3)} "
+            f"| {_fmt(s.standard['fscore_5mm'], 3)} | {_fmt(s.standard['normal_consistency'], 3)} "
+            f"| {_fmt(s.coverage_mean, 3)} "
             f"| {_fmt(s.touches_to_target_mean, 1)} ({s.reached_target}/{s.completed}) |")
     failed = [r for r in rows if not r["completed"]]
     if failed:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Callable
 
 import numpy as np
@@ -69,11 +70,12 @@ class TeleopResult:
 def run_simulated_teleop(object_name: str, device_factory: Callable[[DeviceContext], InputDevice],
                          out_dir: Path, robot: str = "armar3", gui: bool = True,
                          config: TeleopConfig = TeleopConfig(), max_duration_s: float | None = None,
-                         seed: int = 0) -> TeleopResult:
+                         seed: int = 0, observer=None) -> TeleopResult:
     """Teleoperate the simulated arm on ``object_name``; write the session and outputs to ``out_dir``.
 
     Outputs: ``session/``, ``contacts.csv`` (object frame), ``reconstruction.ply`` and
-    ``teleop.json`` (contacts, suggested next touch) once there are contacts.
+    ``teleop.json`` (contacts, suggested next touch) once there are contacts. ``observer``
+    (:class:`explorer.observer.RunObserver`) is shown the session as it is recorded.
     """
     from robots.ik import PadIK
 
@@ -100,11 +102,14 @@ def run_simulated_teleop(object_name: str, device_factory: Callable[[DeviceConte
                              prior=dict(centre_m=prior.centre_m, half_extent_m=prior.half_extent_m))
         metadata = dict(robot=robot, sensor="simulated BNO055 + BMP280 under polyurethane", object=object_name,
                         seed=None, backend="simulation", configuration=jsonable(configuration))
-        recorder = RunRecorder(out_dir, metadata)
+        recorder = RunRecorder(out_dir, metadata, observer=observer)
         drawer = _DebugDrawer(pb, scene.world.client) if gui else None
         session = TeleopSession(scene.arm, scene.sensor, scene.kinematics, scene.stand, prior, recorder,
                                 config, on_update=drawer.draw if drawer else None,
                                 detector=PressureContactDetector(detector_config), settling=settling)
+        if observer is not None:
+            observer.run_started(SimpleNamespace(kinematics=scene.kinematics, positioner=scene.stand,
+                                                 reference=scene.object_model.mesh), session.gpis, metadata)
         error = None
         try:
             with device_factory(context) as device:
