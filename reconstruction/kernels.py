@@ -305,6 +305,50 @@ class Matern52Kernel(Kernel):
         return f"Matern52Kernel(length_m={self.length_m:.4g}, scale={self.scale:.4g})"
 
 
+@register_kernel("matern32")
+class Matern32Kernel(Kernel):
+    """Matern-3/2 kernel ``phi(r) = s^2 (1 + a r) exp(-a r)``, ``a = sqrt(3) / l``.
+
+    Once mean-square differentiable: the least smooth Matern that still has gradient
+    observations (its posterior has the thin plate's smoothness order, plus a length scale that
+    acts as tension). ``g = -s^2 a^2 exp(-a r)``, ``q = s^2 a^3 r exp(-a r)``.
+
+    Parameters
+    ----------
+    length_m : float
+        Length scale ``l``, metres.
+    scale : float
+        Output standard deviation ``s``; ``s = l / sqrt(3)`` gives unit prior gradient variance.
+    """
+
+    @classmethod
+    def for_workspace(cls, region_diagonal_m, contact_spread_m):
+        """Length scale a quarter of the region diagonal, unit prior gradient variance."""
+        length = region_diagonal_m / 4
+        return cls(length_m=length, scale=length / np.sqrt(3.0))
+
+    def __init__(self, length_m: float, scale: float = 1.0):
+        if not (np.isfinite(length_m) and length_m > 0 and np.isfinite(scale) and scale > 0):
+            raise ValueError(f"length_m and scale must be positive, got {length_m!r}, {scale!r}")
+        self.length_m = float(length_m)
+        self.scale = float(scale)
+
+    def phi(self, r):
+        ar = np.sqrt(3.0) / self.length_m * r
+        return self.scale**2 * (1.0 + ar) * np.exp(-ar)
+
+    def g(self, r):
+        a = np.sqrt(3.0) / self.length_m
+        return -self.scale**2 * a**2 * np.exp(-a * r)
+
+    def q(self, r):
+        a = np.sqrt(3.0) / self.length_m
+        return self.scale**2 * a**3 * r * np.exp(-a * r)
+
+    def __repr__(self) -> str:
+        return f"Matern32Kernel(length_m={self.length_m:.4g}, scale={self.scale:.4g})"
+
+
 class ConstantKernel(Kernel):
     """A random constant offset, ``phi(r) = c^2``: positive semi-definite, no gradient covariance.
 
