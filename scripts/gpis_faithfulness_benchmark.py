@@ -55,8 +55,40 @@ def _current_default(bounds):
     return GPIS(bounds=bounds)
 
 
-#: Methods by name: bounds -> an unfitted GPIS.
-METHODS = {"default": _current_default, "old-default": _old_default}
+class _Configured:
+    """A GPIS method: keyword arguments for GPIS, optionally a data-chosen length scale."""
+
+    def __init__(self, **kwargs):
+        self.kwargs = kwargs
+
+    def __call__(self, bounds):
+        return _Fitter(bounds, self.kwargs)
+
+
+class _Fitter:
+    def __init__(self, bounds, kwargs):
+        self.bounds, self.kwargs = bounds, kwargs
+
+    def fit(self, points, normals):
+        kwargs = dict(self.kwargs)
+        family = kwargs.pop("ml_matern32", None)
+        if family is None:
+            return GPIS(bounds=self.bounds, **kwargs).fit(points, normals)
+        from reconstruction.kernels import ConstantKernel, Matern32Kernel, SumKernel
+        from reconstruction.scale_selection import choose_length_scale
+
+        make = lambda length: SumKernel(Matern32Kernel(length, length / np.sqrt(3.0)),  # noqa: E731
+                                        ConstantKernel(0.05))
+        fit = lambda kernel: GPIS(kernel=kernel, bounds=self.bounds, **kwargs).fit(points, normals)  # noqa: E731
+        best, _ = choose_length_scale(fit, make, family)
+        return fit(make(best))
+
+
+#: Methods by name: bounds -> an object whose fit(points, normals) returns a fitted GPIS.
+METHODS = {"default": _current_default, "old-default": _old_default,
+           "normal-noise-0.1": _Configured(normal_noise=0.1),
+           "normal-noise-0.05": _Configured(normal_noise=0.05),
+           "matern32-ml": _Configured(ml_matern32=(0.02, 0.04, 0.08, 0.16))}
 
 
 def object_names(which: str, quick: bool) -> list[str]:
@@ -188,28 +220,30 @@ def figure(all_rows: dict[str, list[dict]], contacts: list[int], path: Path) -> 
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
 
     sets = list(all_rows)
     fig, axes = plt.subplots(1, len(sets), figsize=(5.5 * len(sets), 4.2), sharey=True, squeeze=False)
     for ax, which in zip(axes[0], sets):
         rows = all_rows[which]
-        for method in sorted({r["method"] for r in rows}):
+        for index, method in enumerate(sorted({r["method"] for r in rows})):
+            colour = f"C{index}"
             per_family = defaultdict(lambda: defaultdict(list))
             for r in rows:
                 if r["method"] == method:
                     per_family[r["family"]][r["contacts"]].append(r["rmse_mm"])
             for family, values in per_family.items():
                 ns = [n for n in contacts if n in values]
-                ax.plot(ns, [np.nanmean(values[n]) for n in ns], lw=0.6, alpha=0.35,
-                        color="C0" if method == "default" else "C1")
+                ax.plot(ns, [np.nanmean(values[n]) for n in ns], lw=0.6, alpha=0.35, color=colour)
             med = [np.nanmedian([r["rmse_mm"] for r in rows if r["method"] == method and r["contacts"] == n])
                    for n in contacts]
-            ax.plot(contacts, med, lw=2.5, marker="o", color="C0" if method == "default" else "C1",
+            ax.plot(contacts, med, lw=2.5, marker="o", color=colour,
                     label=f"{method} (median; thin: families)")
         ax.axhline(1.5, ls="--", color="grey", lw=0.8)
         ax.set_xscale("log")
         ax.set_xticks(contacts)
         ax.set_xticklabels([str(n) for n in contacts])
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("contacts")
         ax.set_title(f"{which} set")
         ax.legend(fontsize=8)
