@@ -230,6 +230,17 @@ class GPIS:
         full = self._joint(self._obs_points[used], np.asarray(x, float))[:, :, :, 0]
         return full[index, comps]
 
+    def log_marginal_likelihood(self) -> float:
+        """``log p(y)`` of all observations under the prior (kernel, trend, noise), nats.
+
+        ``-y^T K^-1 y / 2 - log|K| / 2 - rows log(2 pi) / 2`` from the Cholesky factor, O(rows) once
+        the factor exists. Comparing it between kernels of different length scale chooses a scale
+        from the data (:func:`reconstruction.scale_selection.choose_length_scale`).
+        """
+        self._require_factor()
+        log_det = 2.0 * float(np.sum(np.log(np.diag(self._factor.dense()))))
+        return float(-0.5 * self._z @ self._z - 0.5 * log_det - 0.5 * self.n_rows * np.log(2 * np.pi))
+
     # ------------------------------------------------------------------ factor (for trackers)
     @property
     def positive_definite(self) -> bool:

@@ -258,6 +258,155 @@ class SquaredExponentialKernel(Kernel):
         return f"SquaredExponentialKernel(length_m={self.length_m:.4g}, scale={self.scale:.4g})"
 
 
+@register_kernel("matern52")
+class Matern52Kernel(Kernel):
+    """Matern-5/2 kernel ``phi(r) = s^2 (1 + a r + a^2 r^2 / 3) exp(-a r)``, ``a = sqrt(5) / l``.
+
+    Twice differentiable, so gradients can be observed; unlike the squared exponential its
+    correlation falls off polynomially-times-exponentially, so it bends to local detail without the
+    squared exponential's ringing. ``g = -(s^2 a^2 / 3)(1 + a r) exp(-a r)``,
+    ``q = (s^2 a^4 r^2 / 3) exp(-a r)``.
+
+    Parameters
+    ----------
+    length_m : float
+        Length scale ``l``, metres.
+    scale : float
+        Output standard deviation ``s`` (units of the implicit function). With
+        ``s = l sqrt(3/5)`` the prior gradient has unit variance per component, as a signed
+        distance's has.
+    """
+
+    @classmethod
+    def for_workspace(cls, region_diagonal_m, contact_spread_m):
+        """Length scale a tenth of the region diagonal, unit prior gradient variance."""
+        length = region_diagonal_m / 10
+        return cls(length_m=length, scale=length * np.sqrt(0.6))
+
+    def __init__(self, length_m: float, scale: float = 1.0):
+        if not (np.isfinite(length_m) and length_m > 0 and np.isfinite(scale) and scale > 0):
+            raise ValueError(f"length_m and scale must be positive, got {length_m!r}, {scale!r}")
+        self.length_m = float(length_m)
+        self.scale = float(scale)
+
+    def phi(self, r):
+        ar = np.sqrt(5.0) / self.length_m * r
+        return self.scale**2 * (1.0 + ar + ar**2 / 3.0) * np.exp(-ar)
+
+    def g(self, r):
+        a = np.sqrt(5.0) / self.length_m
+        return -(self.scale**2 * a**2 / 3.0) * (1.0 + a * r) * np.exp(-a * r)
+
+    def q(self, r):
+        a = np.sqrt(5.0) / self.length_m
+        return (self.scale**2 * a**4 / 3.0) * r**2 * np.exp(-a * r)
+
+    def __repr__(self) -> str:
+        return f"Matern52Kernel(length_m={self.length_m:.4g}, scale={self.scale:.4g})"
+
+
+@register_kernel("matern32")
+class Matern32Kernel(Kernel):
+    """Matern-3/2 kernel ``phi(r) = s^2 (1 + a r) exp(-a r)``, ``a = sqrt(3) / l``.
+
+    Once mean-square differentiable: the least smooth Matern that still has gradient
+    observations (its posterior has the thin plate's smoothness order, plus a length scale that
+    acts as tension). ``g = -s^2 a^2 exp(-a r)``, ``q = s^2 a^3 r exp(-a r)``.
+
+    Parameters
+    ----------
+    length_m : float
+        Length scale ``l``, metres.
+    scale : float
+        Output standard deviation ``s``; ``s = l / sqrt(3)`` gives unit prior gradient variance.
+    """
+
+    @classmethod
+    def for_workspace(cls, region_diagonal_m, contact_spread_m):
+        """Length scale a quarter of the region diagonal, unit prior gradient variance."""
+        length = region_diagonal_m / 4
+        return cls(length_m=length, scale=length / np.sqrt(3.0))
+
+    def __init__(self, length_m: float, scale: float = 1.0):
+        if not (np.isfinite(length_m) and length_m > 0 and np.isfinite(scale) and scale > 0):
+            raise ValueError(f"length_m and scale must be positive, got {length_m!r}, {scale!r}")
+        self.length_m = float(length_m)
+        self.scale = float(scale)
+
+    def phi(self, r):
+        ar = np.sqrt(3.0) / self.length_m * r
+        return self.scale**2 * (1.0 + ar) * np.exp(-ar)
+
+    def g(self, r):
+        a = np.sqrt(3.0) / self.length_m
+        return -self.scale**2 * a**2 * np.exp(-a * r)
+
+    def q(self, r):
+        a = np.sqrt(3.0) / self.length_m
+        return self.scale**2 * a**3 * r * np.exp(-a * r)
+
+    def __repr__(self) -> str:
+        return f"Matern32Kernel(length_m={self.length_m:.4g}, scale={self.scale:.4g})"
+
+
+class ConstantKernel(Kernel):
+    """A random constant offset, ``phi(r) = c^2``: positive semi-definite, no gradient covariance.
+
+    Added to a decaying kernel (:class:`SumKernel`) it lets the posterior keep a level far from
+    the data instead of falling back to 0.
+
+    Parameters
+    ----------
+    scale : float
+        Prior standard deviation ``c`` of the offset (units of the implicit function).
+    """
+
+    def __init__(self, scale: float):
+        if not (np.isfinite(scale) and scale > 0):
+            raise ValueError(f"scale must be positive, got {scale!r}")
+        self.scale = float(scale)
+
+    def phi(self, r):
+        return np.full_like(np.asarray(r, float), self.scale**2)
+
+    def g(self, r):
+        return np.zeros_like(np.asarray(r, float))
+
+    def q(self, r):
+        return np.zeros_like(np.asarray(r, float))
+
+    def __repr__(self) -> str:
+        return f"ConstantKernel(scale={self.scale:.4g})"
+
+
+class SumKernel(Kernel):
+    """The sum of kernels (a multi-scale kernel): positive definite when every part is.
+
+    Parameters
+    ----------
+    parts : sequence of Kernel
+    """
+
+    def __init__(self, *parts: Kernel):
+        if not parts or not all(isinstance(k, Kernel) for k in parts):
+            raise ValueError("SumKernel needs one or more Kernel instances")
+        self.parts = tuple(parts)
+        self.positive_definite = all(k.positive_definite for k in parts)
+        self.grows_with_workspace = any(k.grows_with_workspace for k in parts)
+
+    def phi(self, r):
+        return sum(k.phi(r) for k in self.parts)
+
+    def g(self, r):
+        return sum(k.g(r) for k in self.parts)
+
+    def q(self, r):
+        return sum(k.q(r) for k in self.parts)
+
+    def __repr__(self) -> str:
+        return " + ".join(repr(k) for k in self.parts)
+
+
 def thin_plate_radius(region_diagonal_m: float, contact_spread_m: float = 0.0) -> float:
     """The thin-plate ``R`` for a workspace: its diagonal, and at least 1.2x the contacts' spread.
 

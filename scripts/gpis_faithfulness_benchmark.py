@@ -1,0 +1,324 @@
+"""Reconstruction faithfulness on the generated object splits: error against the number of contacts.
+
+For every object of a set (``tuning`` / ``held-out``: the fixed splits of :mod:`objects.generated`;
+``registry``: the eight registry objects), N contacts (100 / 200 / 400) are sampled area-uniformly
+from the ground truth with the default sensor noise of :mod:`reconstruction.synthetic_contacts`
+(contact draws = sampling seeds 100, 101, ...), reconstructed by a GPIS method, meshed over the
+object's box grown by 20 % of its largest side, and compared with the truth.
+
+Metrics (both meshes sampled area-uniformly, ``--samples`` points per direction, distances to the
+closest point of the other surface; definitions of :func:`reconstruction.metrics.shape_metrics`):
+
+* RMSE: mean of the two directional RMS distances (as :func:`reconstruction.metrics.surface_error`);
+* p99: 99th percentile of the reconstruction -> truth distances (phantom surface shows here);
+* Chamfer: mean of the two directional mean distances (L1 Chamfer, mm);
+* F@1, F@2: F-score at 1 and 2 mm (harmonic mean of precision, the share of reconstruction samples
+  within the threshold of the truth, and recall, the share of truth samples within it of the
+  reconstruction).
+
+Prints per-family tables and a summary against the issue-10 targets per set, writes every result as
+JSON lines to ``--out`` (re-used: finished cases are not recomputed) and a figure of RMSE against
+the number of contacts, sets side by side.
+
+    python -m scripts.gpis_faithfulness_benchmark --set tuning,held-out --quick --out /tmp/faithful
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import sys
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+import objects
+from objects.proximity import MeshProximity
+from objects.sampling import sample_surface
+from reconstruction.gpis import GPIS
+from reconstruction.metrics import shape_metrics
+from reconstruction.synthetic_contacts import sample_contacts
+
+#: The known rough location: the object's box grown by this fraction of its largest side.
+BOUNDS_PADDING = 0.2
+FIRST_DRAW_SEED = 100
+
+
+def _old_default(bounds):
+    """The GPIS default before issue 10: thin plate, normal noise 0.2, trend 3."""
+    return GPIS(kernel="thin_plate", noise=5e-4, normal_noise=0.2, trend=3.0, bounds=bounds)
+
+
+def _current_default(bounds):
+    return GPIS(bounds=bounds)
+
+
+class _Configured:
+    """A GPIS method: keyword arguments for GPIS, optionally a data-chosen length scale."""
+
+    def __init__(self, **kwargs):
+        self.kwargs = kwargs
+
+    def __call__(self, bounds):
+        return _Fitter(bounds, self.kwargs)
+
+
+class _Fitter:
+    def __init__(self, bounds, kwargs):
+        self.bounds, self.kwargs = bounds, kwargs
+
+    def fit(self, points, normals):
+        kwargs = dict(self.kwargs)
+        family = kwargs.pop("ml_matern32", None)
+        if family is None:
+            return GPIS(bounds=self.bounds, **kwargs).fit(points, normals)
+        from reconstruction.kernels import ConstantKernel, Matern32Kernel, SumKernel
+        from reconstruction.scale_selection import choose_length_scale
+
+        make = lambda length: SumKernel(Matern32Kernel(length, length / np.sqrt(3.0)),  # noqa: E731
+                                        ConstantKernel(0.05))
+        fit = lambda kernel: GPIS(kernel=kernel, bounds=self.bounds, **kwargs).fit(points, normals)  # noqa: E731
+        best, _ = choose_length_scale(fit, make, family)
+        return fit(make(best))
+
+
+#: Methods by name: bounds -> an object whose fit(points, normals) returns a fitted GPIS.
+METHODS = {"default": _current_default, "old-default": _old_default,
+           "normal-noise-0.1": _Configured(normal_noise=0.1),
+           "normal-noise-0.05": _Configured(normal_noise=0.05),
+           "matern32-ml": _Configured(ml_matern32=(0.02, 0.04, 0.08, 0.16))}
+
+
+def object_names(which: str, quick: bool) -> list[str]:
+    """Names in a set; ``quick`` keeps the first object of each family (one per registry object)."""
+    from objects.generated import HELD_OUT, TUNING
+
+    if which == "registry":
+        return ["box", "sphere", "cylinder", "banana"] if quick else list(objects.names())
+    names = {"tuning": TUNING, "held-out": HELD_OUT}.get(which)
+    if names is None:
+        raise SystemExit(f"unknown set {which!r}: use tuning, held-out or registry")
+    if not quick:
+        return list(names)
+    seen, out = set(), []
+    for name in names:
+        family = family_of(name)
+        if family not in seen:
+            seen.add(family)
+            out.append(name)
+    return out
+
+
+def family_of(name: str) -> str:
+    return name.split(":", 1)[1].split("/")[0] if name.startswith("generated:") else name
+
+
+def object_bounds(mesh) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = mesh.bounds
+    pad = BOUNDS_PADDING * float(np.max(hi - lo))
+    return lo - pad, hi + pad
+
+
+def _directional(source, target_proximity: MeshProximity, target_normals, n: int, rng):
+    points, faces = sample_surface(source, n, rng)
+    _, distance, target_faces = target_proximity.query(points)
+    cos = np.einsum("ij,ij->i", source.face_normals[faces], target_normals[target_faces])
+    return distance, cos
+
+
+def compare(reconstruction, truth, n_samples: int, seed: int) -> dict:
+    """The benchmark's metrics of one reconstruction (see the module docstring); mm."""
+    rng = np.random.default_rng(seed)
+    forward, forward_cos = _directional(reconstruction, MeshProximity(truth), truth.face_normals,
+                                        n_samples, rng)
+    backward, backward_cos = _directional(truth, MeshProximity(reconstruction),
+                                          reconstruction.face_normals, n_samples, rng)
+    standard = shape_metrics(forward, backward, forward_cos, backward_cos)
+    rms = lambda v: float(np.sqrt(np.mean(np.square(v))))  # noqa: E731
+    return dict(rmse_mm=1e3 * (rms(forward) + rms(backward)) / 2,
+                p99_mm=1e3 * float(np.quantile(forward, 0.99)),
+                chamfer_mm=standard.chamfer_l1_mm, f1=standard.fscore_1mm, f2=standard.fscore_2mm)
+
+
+def run_case(method: str, name: str, truth, n_contacts: int, draw: int, resolution: int,
+             n_samples: int) -> dict:
+    seed = FIRST_DRAW_SEED + draw
+    points, normals, _, _ = sample_contacts(truth, n_contacts, seed=seed)
+    t0 = time.perf_counter()
+    gp = METHODS[method](object_bounds(truth)).fit(points, normals)
+    fit_s = time.perf_counter() - t0
+    try:
+        metrics = compare(gp.mesh(resolution=resolution), truth, n_samples, seed)
+    except ValueError as exc:  # no surface in the box: count as a failure, never drop it
+        metrics = dict(rmse_mm=float("nan"), p99_mm=float("nan"), chamfer_mm=float("nan"),
+                       f1=0.0, f2=0.0, error=str(exc))
+    return dict(method=method, object=name, family=family_of(name), contacts=n_contacts, draw=draw,
+                fit_s=fit_s, resolution=resolution, **metrics)
+
+
+def _key(row: dict) -> tuple:
+    return row["method"], row["object"], row["contacts"], row["draw"], row["resolution"]
+
+
+def load_results(path: Path | None) -> dict:
+    if path is None or not path.exists():
+        return {}
+    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    return {_key(r): r for r in rows}
+
+
+def family_table(rows: list[dict], contacts: list[int]) -> str:
+    by = defaultdict(list)
+    for r in rows:
+        by[(r["family"], r["contacts"])].append(r)
+    head = "| family | " + " | ".join(f"{n}: RMSE / p99 / Chamfer / F@1 / F@2" for n in contacts) + " |"
+    lines = [head, "|---|" + "---|" * len(contacts)]
+    for family in sorted({r["family"] for r in rows}):
+        cells = []
+        for n in contacts:
+            v = by.get((family, n), [])
+            if not v:
+                cells.append("-")
+                continue
+            m = {k: float(np.nanmean([r[k] for r in v])) for k in ("rmse_mm", "p99_mm", "chamfer_mm", "f1", "f2")}
+            cells.append(f"{m['rmse_mm']:.2f} / {m['p99_mm']:.1f} / {m['chamfer_mm']:.2f} / "
+                         f"{m['f1']:.2f} / {m['f2']:.2f}")
+        lines.append(f"| {family} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def summary(rows: list[dict], contacts: list[int]) -> str:
+    """Against the issue-10 targets: per-object means over draws at each N, monotonicity per draw."""
+    per_object = defaultdict(list)
+    for r in rows:
+        per_object[(r["object"], r["contacts"])].append(r)
+    out = []
+    for n in contacts:
+        rmse = [np.nanmean([r["rmse_mm"] for r in v]) for (o, c), v in per_object.items() if c == n]
+        p99 = [np.nanmax([r["p99_mm"] for r in v]) for (o, c), v in per_object.items() if c == n]
+        if rmse:
+            worst = max(((np.nanmean([r["rmse_mm"] for r in v]), o) for (o, c), v in per_object.items()
+                         if c == n))
+            out.append(f"{n} contacts: RMSE median {np.median(rmse):.2f} mm, mean {np.mean(rmse):.2f}, "
+                       f"max {worst[0]:.2f} ({worst[1]}); objects over 1.5 mm: "
+                       f"{int(np.sum(np.array(rmse) > 1.5))}/{len(rmse)}; p99 max {np.max(p99):.1f} mm, "
+                       f"objects over 3 mm: {int(np.sum(np.array(p99) > 3))}/{len(p99)}")
+    worse = []
+    by_draw = {(r["object"], r["draw"], r["contacts"]): r["rmse_mm"] for r in rows}
+    for (o, d, c), value in by_draw.items():
+        nxt = [m for m in contacts if m > c]
+        if nxt and (o, d, nxt[0]) in by_draw and by_draw[(o, d, nxt[0])] > value:
+            worse.append(f"{o} draw {d}: {c}->{nxt[0]} {value:.2f}->{by_draw[(o, d, nxt[0])]:.2f}")
+    out.append(f"worse with more contacts: {len(worse)}" + (" (" + "; ".join(worse) + ")" if worse else ""))
+    return "\n".join(out)
+
+
+def figure(all_rows: dict[str, list[dict]], contacts: list[int], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
+
+    sets = list(all_rows)
+    fig, axes = plt.subplots(1, len(sets), figsize=(5.5 * len(sets), 4.2), sharey=True, squeeze=False)
+    for ax, which in zip(axes[0], sets):
+        rows = all_rows[which]
+        for index, method in enumerate(sorted({r["method"] for r in rows})):
+            colour = f"C{index}"
+            per_family = defaultdict(lambda: defaultdict(list))
+            for r in rows:
+                if r["method"] == method:
+                    per_family[r["family"]][r["contacts"]].append(r["rmse_mm"])
+            for family, values in per_family.items():
+                ns = [n for n in contacts if n in values]
+                ax.plot(ns, [np.nanmean(values[n]) for n in ns], lw=0.6, alpha=0.35, color=colour)
+            med = [np.nanmedian([r["rmse_mm"] for r in rows if r["method"] == method and r["contacts"] == n])
+                   for n in contacts]
+            ax.plot(contacts, med, lw=2.5, marker="o", color=colour,
+                    label=f"{method} (median; thin: families)")
+        ax.axhline(1.5, ls="--", color="grey", lw=0.8)
+        ax.set_xscale("log")
+        ax.set_xticks(contacts)
+        ax.set_xticklabels([str(n) for n in contacts])
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.set_xlabel("contacts")
+        ax.set_title(f"{which} set")
+        ax.legend(fontsize=8)
+    axes[0][0].set_ylabel("position RMSE (mm)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--set", default="tuning,held-out",
+                        help="comma-separated: tuning, held-out, registry (default: tuning,held-out)")
+    parser.add_argument("--methods", default="default",
+                        help=f"comma-separated GPIS methods: {', '.join(METHODS)}")
+    parser.add_argument("--contacts", default="100,200,400")
+    parser.add_argument("--draws", type=int, default=3, help="contact draws per object and N")
+    parser.add_argument("--quick", action="store_true",
+                        help="one object per family and one draw (a few minutes per method on 2 cores)")
+    parser.add_argument("--objects", default=None, help="comma-separated names instead of --set")
+    parser.add_argument("--resolution", type=int, default=96, help="meshing samples per side")
+    parser.add_argument("--samples", type=int, default=10000, help="surface samples per direction")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="directory for results.jsonl (re-used), tables.md and error_vs_contacts.png")
+    args = parser.parse_args(argv)
+
+    methods = args.methods.split(",")
+    for m in methods:
+        if m not in METHODS:
+            parser.error(f"unknown method {m!r}; choose from {', '.join(METHODS)}")
+    try:
+        contacts = sorted(int(v) for v in args.contacts.split(","))
+    except ValueError:
+        parser.error(f"--contacts must be comma-separated integers, got {args.contacts!r}")
+    draws = 1 if args.quick else args.draws
+    sets = ["custom"] if args.objects else args.set.split(",")
+    results_path = None
+    if args.out is not None:
+        args.out.mkdir(parents=True, exist_ok=True)
+        results_path = args.out / "results.jsonl"
+    done = load_results(results_path)
+    all_rows: dict[str, list[dict]] = {}
+    text = [f"Machine: {platform.machine()}, python {platform.python_version()}; "
+            f"draws {draws}, resolution {args.resolution}, {args.samples} samples per direction"]
+    for which in sets:
+        names = args.objects.split(",") if args.objects else object_names(which, args.quick)
+        rows = []
+        for name in names:
+            truth = objects.load(name).mesh
+            for method in methods:
+                for n in contacts:
+                    for draw in range(draws):
+                        key = (method, name, n, draw, args.resolution)
+                        if key not in done:
+                            done[key] = run_case(method, name, truth, n, draw, args.resolution, args.samples)
+                            if results_path is not None:
+                                with open(results_path, "a") as fh:
+                                    fh.write(json.dumps(done[key]) + "\n")
+                            r = done[key]
+                            print(f"{which} {method} {name} {n} draw {draw}: RMSE {r['rmse_mm']:.2f} mm, "
+                                  f"p99 {r['p99_mm']:.1f} mm", file=sys.stderr, flush=True)
+                        rows.append(done[key])
+        all_rows[which] = rows
+        for method in methods:
+            mrows = [r for r in rows if r["method"] == method]
+            text += [f"\n### {which} set, method {method} ({len(names)} objects)\n",
+                     family_table(mrows, contacts), "", summary(mrows, contacts)]
+    report = "\n".join(text)
+    print(report)
+    if args.out is not None:
+        (args.out / "tables.md").write_text(report + "\n")
+        figure(all_rows, contacts, args.out / "error_vs_contacts.png")
+        print(f"wrote {args.out / 'tables.md'}, {args.out / 'error_vs_contacts.png'}, {results_path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
