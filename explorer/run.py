@@ -51,6 +51,7 @@ class RunSettings:
     strategy: str = "variance"
     touches: int = 50
     seed: int = 0
+    profile: str = "datasheet-noise"
     use_normals: bool = True
     gui: bool = False
     eval_every: int = 5
@@ -112,11 +113,13 @@ def explore(settings: RunSettings, out_dir: Path, progress=None, resume: bool = 
     With ``resume=True`` the run already in ``out_dir`` is continued to ``settings.touches``
     (see :func:`run_on_rig`).
     """
-    with build_scene(settings.object, settings.robot, seed=settings.seed, gui=settings.gui) as scene:
+    with build_scene(settings.object, settings.robot, seed=settings.seed, gui=settings.gui,
+                     profile=settings.profile) as scene:
         truth = scene.object_model.mesh
         rig = Rig(scene.arm, scene.sensor, scene.kinematics, scene.stand, object_prior(truth), truth,
                   dict(robot=settings.robot, sensor="simulated BNO055 + BMP280 under polyurethane",
-                       object=settings.object, backend="simulation"))
+                       object=settings.object, backend="simulation", profile=scene.profile.name,
+                       profile_parameters=scene.profile.changed_parameters()))
         return run_on_rig(rig, settings, out_dir, progress, resume)
 
 

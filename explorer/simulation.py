@@ -14,16 +14,15 @@ import objects
 import robots
 from explorer.positioner import SimulatedStand, turntable_poses
 from robots.kinematics import ArmKinematics
-from robots.sim_arm import EncoderModel, SimArm
+from robots.sim_arm import SimArm
 from robots.sim_world import SimWorld
+from sensor.sim.profile import SimProfile, get_profile
 from sensor.sim_sensor import SimulatedSensorConfig, SimulatedTactileSensor
 
 #: Contact stiffness of the 3.7 mm polyurethane pad: a soft cast pad (shore 00, about 0.04 MPa)
 #: over the 18 x 18 mm face compresses about 0.3 mm per newton.
 PAD_STIFFNESS_N_PER_M = 3.0e3
 
-#: 14-bit absolute joint encoders: 2 pi / 2^14 = 0.38 mrad, about 0.27 mm at the fingertip.
-ENCODER_RESOLUTION_RAD = 2 * np.pi / 2**14
 
 
 @dataclass
@@ -39,6 +38,8 @@ class SimScene:
     stand : SimulatedStand
     object_model : objects.ObjectModel
         Ground truth (object frame).
+    profile : SimProfile
+        The errors this scene simulates.
     """
 
     world: SimWorld
@@ -47,6 +48,7 @@ class SimScene:
     kinematics: ArmKinematics
     stand: SimulatedStand
     object_model: "objects.ObjectModel"
+    profile: SimProfile = get_profile(None)
 
     def close(self) -> None:
         self.sensor.close()
@@ -62,7 +64,8 @@ class SimScene:
 def build_scene(object_name: str, robot_name: str = "armar3", seed: int = 0, gui: bool = False,
                 sensor_config: SimulatedSensorConfig | None = None, yaw_steps: int = 12,
                 tilt_steps: int = 4, stand_centre_m=None,
-                pad_stiffness_n_per_m: float = PAD_STIFFNESS_N_PER_M) -> SimScene:
+                pad_stiffness_n_per_m: float = PAD_STIFFNESS_N_PER_M,
+                profile: str | SimProfile | None = None) -> SimScene:
     """Load the robot, the object on a turntable-and-tilt stand at the arm's workspace centre,
     and the simulated sensor wired to the pad.
 
@@ -73,23 +76,32 @@ def build_scene(object_name: str, robot_name: str = "armar3", seed: int = 0, gui
     robot_name : str
         Robot registry name.
     seed : int
-        Seeds the sensor noise and the encoder model.
+        Seeds the sensor noise and the encoder model (and the profile's calibration errors).
+    sensor_config : SimulatedSensorConfig, optional
+        Overrides the profile's sensor settings.
+    profile : str or SimProfile, optional
+        Simulation profile name, TOML file or object (default ``datasheet-noise``,
+        :mod:`sensor.sim.profile`): spring friction, pad friction, encoders, calibration errors, chips.
     stand_centre_m : (3,) float, optional
         Where the object-frame origin sits in the world (default: the robot's workspace centre).
     """
+    profile = get_profile(profile)
     model = objects.load(object_name)
-    spec = dataclasses.replace(robots.load(robot_name), pad_contact_stiffness_n_per_m=pad_stiffness_n_per_m)
+    spec = profile.robot_spec(dataclasses.replace(robots.load(robot_name),
+                                                  pad_contact_stiffness_n_per_m=pad_stiffness_n_per_m))
+    sensor_config = profile.sensor_config() if sensor_config is None else sensor_config
     world = SimWorld(gui=gui)
     try:
         centre = np.asarray(spec.workspace_center_m if stand_centre_m is None else stand_centre_m, float)
         handle = world.add_object(model.urdf_path, centre, name=model.name)
         stand = SimulatedStand(lambda p, q: world.set_object_pose(handle, p, q), centre,
                                turntable_poses(yaw_steps, tilt_steps))
-        arm = SimArm(world, spec, encoder=EncoderModel(resolution_rad=ENCODER_RESOLUTION_RAD, seed=seed))
+        arm = SimArm(world, spec, encoder=profile.encoder_model(spec.dof, seed),
+                     spring_friction_nm=profile.spring_friction_nm)
         sensor = SimulatedTactileSensor(config=sensor_config, seed=seed)
         world.add_step_listener(lambda _t: sensor.on_step(arm.pad_state()))
         sensor.open()
-        return SimScene(world, arm, sensor, ArmKinematics(spec), stand, model)
+        return SimScene(world, arm, sensor, ArmKinematics(spec), stand, model, profile)
     except Exception:
         world.close()
         raise

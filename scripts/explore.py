@@ -39,6 +39,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--resume", action="store_true",
                         help="continue the stopped run in --out from its recorded contacts")
     parser.add_argument("--gui", action="store_true", help="show the PyBullet window (simulation only)")
+    parser.add_argument("--profile", help="simulation profile: ideal, datasheet-noise (default), hardware-like "
+                                          "or a .toml file (sensor/sim/profile.py); simulation only")
     args = parser.parse_args(argv)
     if args.touches is not None and args.touches < 1:
         parser.error("--touches must be at least 1")
@@ -46,6 +48,13 @@ def main(argv: list[str] | None = None) -> int:
                  if v is not None}
     if args.no_normals:
         overrides["use_normals"] = False
+    if args.profile is not None:
+        from sensor.sim.profile import get_profile
+
+        try:
+            get_profile(args.profile)
+        except ValueError as error:
+            parser.error(str(error))
 
     import torch
 
@@ -56,10 +65,12 @@ def main(argv: list[str] | None = None) -> int:
         from explorer.run import RunSettings, explore
 
         settings = dataclasses.replace(RunSettings(object=args.object or "banana", robot=args.robot or "armar3",
-                                                   gui=args.gui), **overrides)
+                                                   gui=args.gui, profile=args.profile or "datasheet-noise"),
+                                       **overrides)
         result = _with_progress(settings, lambda progress: explore(settings, args.out, progress, args.resume))
     else:
-        for flag, value in (("--object", args.object), ("--robot", args.robot), ("--gui", args.gui or None)):
+        for flag, value in (("--object", args.object), ("--robot", args.robot), ("--gui", args.gui or None),
+                            ("--profile", args.profile)):
             if value is not None:
                 parser.error(f"{flag} does not go with --config: set it in the configuration file")
         from explorer.config import load_config
