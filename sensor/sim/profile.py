@@ -9,7 +9,8 @@ the field names. Three are built in:
   ``sensor/sim/bmp280.py``), a frictionless spring and an exactly calibrated arm with 14-bit
   encoders; the default, and what every figure before issue 12 was measured with;
 * ``hardware-like``: the errors of a real fingertip on a real humanoid arm, each from its physical
-  cause, calibrated so that the sensor evaluation reproduces the reference sensor's accuracy.
+  cause; the pad's stiffness and the heading disturbance (within its measured range) are
+  calibrated so that the sensor evaluation reproduces the reference sensor's accuracy (BENCHMARKS.md).
 
 :data:`PARAMETER_SOURCES` gives the source of each ``hardware-like`` value (data sheet, the reference
 work, a published measurement) or says that it is an assumption. A TOML file overrides single
@@ -222,17 +223,15 @@ def _ideal() -> SimProfile:
 
 HARDWARE_LIKE = SimProfile(
     name="hardware-like",
-    spring_friction_nm=1.5e-3,
-    pad_lateral_friction=0.8,
-    pad_contact_stiffness_n_per_m=3.0e3,
+    spring_friction_nm=1.0e-3,
+    pad_contact_stiffness_n_per_m=500.0,
     imu_tilt_bias_std_deg=0.5,
-    imu_heading_offset_std_deg=2.0,
+    imu_heading_offset_std_deg=4.0,
     imu_latency_s=0.02,
     pad_creep_fraction=0.1,
     pad_creep_time_constant_s=1.0,
     pad_thermal_pa_per_k=110.0,
     pad_contact_temperature_difference_k=-5.0,
-    encoder_noise_std_deg=0.0,
     joint_offset_std_deg=0.5,
     encoder_backlash_deg=0.1,
 )
@@ -244,23 +243,24 @@ PROFILES: dict[str, SimProfile] = {
 }
 
 PARAMETER_SOURCES: dict[str, str] = {
-    "spring_stiffness_nm_per_rad": "assumption, calibrated: the real coil spring's bending stiffness is not "
-                                   "published; chosen with the pad stiffness to match the reference's error "
-                                   "growth with tilt (the simulator's stability bound at 1/480 s is ~0.035)",
-    "spring_friction_nm": "assumption, calibrated: the torque band that makes the sensor evaluation's mean "
-                          "normal error over 0-50 deg match the reference's 7.3 deg",
-    "pad_lateral_friction": "assumption: cast polyurethane on dry cardboard, wood or plastic, 0.5-1.0 in "
-                            "friction tables; 0.8 (the spec's 0.4 is a smooth hard pad)",
-    "pad_contact_stiffness_n_per_m": "the cast pad: shore 00 polyurethane, about 0.3 mm per newton over the "
-                                     "18 x 18 mm face (as the exploration scene, explorer/simulation.py)",
+    "spring_stiffness_nm_per_rad": "0: the robot spec's 0.02 N m/rad kept (robots/fingertip.py); 0.03 was tried "
+                                   "and jams the pad at 40 deg (the simulator's stability bound is ~0.035)",
+    "spring_friction_nm": "assumption: a coil spring's inter-coil and mount friction, 1e-3 N m, 5 % of the "
+                          "spring torque at 50 deg: hysteresis of about +-0.5 deg on the soft pad",
+    "pad_lateral_friction": "0: the robot spec's 0.4 kept; measured in tuning: 0.8 jams the pad at 50 deg "
+                            "tilt in every press (32 deg error), 0.5 at 40-50 deg in some",
+    "pad_contact_stiffness_n_per_m": "calibrated: per contact point (PyBullet puts one at each of the face's 4 "
+                                     "corners), 2 kN/m over the face = 0.5 mm per newton, a soft cast pad; "
+                                     "its rotational stiffness against the spring's torque sets how far the "
+                                     "module stays tilted, growing with the tilt",
     "imu_white_noise_deg": "BNO055 data sheet Table 0-2 and 3-4: 150 ug/sqrt(Hz) x sqrt(62.5 Hz) / g",
     "imu_tilt_bias_std_deg": "assumption: residual accelerometer offset of a consumer IMU after the "
                              "fusion's calibration, ~0.1 g-percent; users report ~0.5-1 deg static tilt error",
     "imu_tilt_bias_time_constant_s": "assumption (as datasheet-noise)",
     "imu_heading_walk_deg_per_sqrt_s": "BNO055 data sheet Table 0-2: gyroscope noise density 0.014 deg/s/sqrt(Hz)",
-    "imu_heading_offset_std_deg": "published measurement: BNO055 heading repeatability about +-3 deg (1 sigma) on "
-                                  "a turntable (Adafruit forum, t=112315); 10 deg/h drift near disturbances "
-                                  "(Bosch community forum); 2 deg after the lab's heading reference",
+    "imu_heading_offset_std_deg": "published measurement: BNO055 heading repeatability about +-3 deg (1 sigma) "
+                                  "on a turntable away from motors (Adafruit forum, t=112315); 4 deg assumed "
+                                  "beside the arm's motors in NDOF mode; calibrated within that range",
     "imu_latency_s": "assumption: two 100 Hz fusion periods (Table 3-14) between motion and output",
     "imu_mounting_std_deg": "assumption from assembly tolerances (sensor/sim/bno055.py); calibrated away by "
                             "sensor-monitor --calibrate",
