@@ -55,7 +55,8 @@ def run_settings(config: BackendConfig) -> RunSettings:
     exploration = config.exploration
     return RunSettings(object=object_name(config), robot=config.robot.spec, strategy=exploration.strategy,
                        touches=exploration.touches, seed=exploration.seed, use_normals=exploration.use_normals,
-                       eval_every=exploration.eval_every, mesh_resolution=exploration.mesh_resolution)
+                       eval_every=exploration.eval_every, mesh_resolution=exploration.mesh_resolution,
+                       profile=config.simulation.profile if config.robot.backend == "sim" else "none")
 
 
 @contextlib.contextmanager
@@ -136,7 +137,8 @@ def _simulated_backends(config: BackendConfig):
     from explorer.simulation import build_scene
 
     with build_scene(object_name(config), config.robot.spec, seed=config.exploration.seed,
-                     stand_centre_m=config.object.centre_m, yaw_steps=1, tilt_steps=1) as scene:
+                     stand_centre_m=config.object.centre_m, yaw_steps=1, tilt_steps=1,
+                     profile=config.simulation.profile) as scene:
         yield scene.arm, scene.sensor
 
 

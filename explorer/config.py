@@ -26,6 +26,9 @@ and roughly where, and the exploration settings, from a TOML or JSON file.
     touches = 50
     strategy = "variance"
 
+    [simulation]                        # backend = "sim" only
+    profile = "hardware-like"           # ideal | datasheet-noise (default) | hardware-like | a .toml file
+
 :func:`load_config` reads and checks a file (every error names the key); this module is the schema
 only. :mod:`explorer.backends` opens what a configuration describes
 (:func:`explorer.backends.open_backends`, :func:`explorer.backends.open_rig`). ``robot.backend = "emulated"`` with
@@ -324,6 +327,29 @@ class EmulationConfig:
 
 
 @dataclass(frozen=True)
+class SimulationConfig:
+    """``[simulation]``: how imperfect the simulated robot and sensor are (``backend = "sim"``).
+
+    Attributes
+    ----------
+    profile : str
+        A profile name from :data:`explorer.sim_profile.PROFILES` or a TOML profile file (relative
+        paths resolve against the configuration file).
+    """
+
+    profile: str = "datasheet-noise"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.profile, str) or not self.profile:
+            raise _fail("simulation.profile", f"expected a profile name or .toml file, got {self.profile!r}")
+        from explorer.sim_profile import PROFILES
+
+        if self.profile not in PROFILES and not self.profile.lower().endswith(".toml"):
+            raise _fail("simulation.profile", f"unknown profile {self.profile!r}: use one of "
+                                              f"{', '.join(PROFILES)} or a .toml profile file")
+
+
+@dataclass(frozen=True)
 class BackendConfig:
     """The whole configuration.
 
@@ -334,6 +360,7 @@ class BackendConfig:
     object : ObjectConfig
     exploration : ExplorationConfig
     emulation : EmulationConfig
+    simulation : SimulationConfig
     source : Path or None
         The file it was read from.
     """
@@ -343,6 +370,7 @@ class BackendConfig:
     object: ObjectConfig = field(default_factory=ObjectConfig)
     exploration: ExplorationConfig = field(default_factory=ExplorationConfig)
     emulation: EmulationConfig = field(default_factory=EmulationConfig)
+    simulation: SimulationConfig = field(default_factory=SimulationConfig)
     source: Path | None = None
 
     def __post_init__(self) -> None:
@@ -352,7 +380,7 @@ class BackendConfig:
 
 
 _SECTIONS = {"robot": RobotConfig, "sensor": SensorConfig, "object": ObjectConfig,
-             "exploration": ExplorationConfig, "emulation": EmulationConfig}
+             "exploration": ExplorationConfig, "emulation": EmulationConfig, "simulation": SimulationConfig}
 
 
 def config_from_dict(data: Any, base_dir: str | Path | None = None, source: Path | None = None) -> BackendConfig:
@@ -377,8 +405,20 @@ def config_from_dict(data: Any, base_dir: str | Path | None = None, source: Path
             sensor = _replace(sensor, calibration=Path(base_dir) / sensor.calibration)
         if target.reference_mesh is not None and not target.reference_mesh.is_absolute():
             target = _replace(target, reference_mesh=Path(base_dir) / target.reference_mesh)
+    simulation = sections["simulation"]
+    if base_dir is not None and simulation.profile.lower().endswith(".toml") \
+            and not Path(simulation.profile).is_absolute():
+        simulation = SimulationConfig(profile=str(Path(base_dir) / simulation.profile))
+    if simulation.profile.lower().endswith(".toml"):
+        from explorer.sim_profile import get_profile
+
+        try:
+            get_profile(simulation.profile)
+        except ValueError as error:
+            raise _fail("simulation.profile", str(error)) from None
     return BackendConfig(robot=sections["robot"], sensor=sensor, object=target,
-                         exploration=sections["exploration"], emulation=sections["emulation"], source=source)
+                         exploration=sections["exploration"], emulation=sections["emulation"],
+                         simulation=simulation, source=source)
 
 
 def _replace(config, **changes):

@@ -54,6 +54,7 @@ class RunSettings:
     strategy: str = ExplorationConfig.strategy
     touches: int = ExplorationConfig.touches
     seed: int = ExplorationConfig.seed
+    profile: str = "datasheet-noise"
     use_normals: bool = ExplorationConfig.use_normals
     gui: bool = False
     eval_every: int = ExplorationConfig.eval_every
@@ -77,11 +78,13 @@ def explore(settings: RunSettings, out_dir: Path, progress=None, resume: bool = 
     With ``resume=True`` the run already in ``out_dir`` is continued to ``settings.touches``
     (see :func:`run_on_rig`); ``observer`` as there.
     """
-    with build_scene(settings.object, settings.robot, seed=settings.seed, gui=settings.gui) as scene:
+    with build_scene(settings.object, settings.robot, seed=settings.seed, gui=settings.gui,
+                     profile=settings.profile) as scene:
         truth = scene.object_model.mesh
         rig = Rig(scene.arm, scene.sensor, scene.kinematics, scene.stand, object_prior(truth), truth,
                   dict(robot=settings.robot, sensor="simulated BNO055 + BMP280 under polyurethane",
-                       object=settings.object, backend="simulation"), scene.pad)
+                       object=settings.object, backend="simulation", profile=scene.profile.name,
+                       profile_parameters=scene.profile.changed_parameters()), scene.pad)
         return run_on_rig(rig, settings, out_dir, progress, resume, observer, status=status)
 
 

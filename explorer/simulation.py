@@ -14,13 +14,12 @@ import objects
 import robots
 from explorer.positioner import SimulatedStand, turntable_poses
 from robots.kinematics import ArmKinematics
-from robots.sim_arm import EncoderModel, SimArm
+from robots.sim_arm import SimArm
 from robots.sim_world import SimWorld
 from sensor.pad_calibration import PAD_STIFFNESS_N_PER_M, PadCalibration
+from explorer.sim_profile import SimProfile, get_profile
 from sensor.sim_sensor import SimulatedSensorConfig, SimulatedTactileSensor
 
-#: 14-bit absolute joint encoders: 2 pi / 2^14 = 0.38 mrad, about 0.27 mm at the fingertip.
-ENCODER_RESOLUTION_RAD = 2 * np.pi / 2**14
 
 
 @dataclass
@@ -37,7 +36,10 @@ class SimScene:
     object_model : objects.ObjectModel
         Ground truth (object frame).
     pad : PadCalibration
-        The simulated pad's own force model and compliance (what a perfect calibration gives).
+        The simulated pad's own force model and the nominal compliance (what the lab's
+        calibration gives; the profile may make the simulated pad softer than that).
+    profile : SimProfile
+        The errors this scene simulates.
     """
 
     world: SimWorld
@@ -47,6 +49,7 @@ class SimScene:
     stand: SimulatedStand
     object_model: "objects.ObjectModel"
     pad: PadCalibration
+    profile: SimProfile = get_profile(None)
 
     def close(self) -> None:
         self.sensor.close()
@@ -62,7 +65,8 @@ class SimScene:
 def build_scene(object_name: str, robot_name: str = "armar3", seed: int = 0, gui: bool = False,
                 sensor_config: SimulatedSensorConfig | None = None, yaw_steps: int = 12,
                 tilt_steps: int = 4, stand_centre_m=None,
-                pad_stiffness_n_per_m: float = PAD_STIFFNESS_N_PER_M) -> SimScene:
+                pad_stiffness_n_per_m: float = PAD_STIFFNESS_N_PER_M,
+                profile: str | SimProfile | None = None) -> SimScene:
     """Load the robot, the object on a turntable-and-tilt stand at the arm's workspace centre,
     and the simulated sensor wired to the pad.
 
@@ -73,24 +77,33 @@ def build_scene(object_name: str, robot_name: str = "armar3", seed: int = 0, gui
     robot_name : str
         Robot registry name.
     seed : int
-        Seeds the sensor noise and the encoder model.
+        Seeds the sensor noise and the encoder model (and the profile's calibration errors).
+    sensor_config : SimulatedSensorConfig, optional
+        Overrides the profile's sensor settings.
+    profile : str or SimProfile, optional
+        Simulation profile name, TOML file or object (default ``datasheet-noise``,
+        :mod:`explorer.sim_profile`): spring friction, pad friction, encoders, calibration errors, chips.
     stand_centre_m : (3,) float, optional
         Where the object-frame origin sits in the world (default: the robot's workspace centre).
     """
+    profile = get_profile(profile)
     model = objects.load(object_name)
-    spec = dataclasses.replace(robots.load(robot_name), pad_contact_stiffness_n_per_m=pad_stiffness_n_per_m)
+    spec = profile.robot_spec(dataclasses.replace(robots.load(robot_name),
+                                                  pad_contact_stiffness_n_per_m=pad_stiffness_n_per_m))
+    sensor_config = profile.sensor_config() if sensor_config is None else sensor_config
     world = SimWorld(gui=gui)
     try:
         centre = np.asarray(spec.workspace_center_m if stand_centre_m is None else stand_centre_m, float)
         handle = world.add_object(model.urdf_path, centre, name=model.name)
         stand = SimulatedStand(lambda p, q: world.set_object_pose(handle, p, q), centre,
                                turntable_poses(yaw_steps, tilt_steps))
-        arm = SimArm(world, spec, encoder=EncoderModel(resolution_rad=ENCODER_RESOLUTION_RAD, seed=seed))
+        arm = SimArm(world, spec, encoder=profile.encoder_model(spec.dof, seed),
+                     spring_friction_nm=profile.spring_friction_nm)
         sensor = SimulatedTactileSensor(config=sensor_config, seed=seed)
         world.add_step_listener(lambda _t: sensor.on_step(arm.pad_state()))
         sensor.open()
         pad = PadCalibration(sensor.config.barometer.pad, 1.0 / pad_stiffness_n_per_m)
-        return SimScene(world, arm, sensor, ArmKinematics(spec), stand, model, pad)
+        return SimScene(world, arm, sensor, ArmKinematics(spec), stand, model, pad, profile)
     except Exception:
         world.close()
         raise

@@ -4,9 +4,15 @@ Control: actuated joints use PyBullet POSITION_CONTROL with the URDF effort limi
 commanded every control tick (``control_steps`` physics steps; 4 x 1/480 s = 120 Hz by default),
 and a guarded move calls its ``stop()`` predicate once per tick.
 
-Fingertip: the spring joints' default velocity motors are switched off (VELOCITY_CONTROL with
-force 0) and a pre-step hook applies ``tau = -k theta - c theta_dot`` in TORQUE_CONTROL before
-every physics step. The pad gets the spec's friction and contact softness.
+Fingertip: the spring joints' default velocity motors hold velocity 0 with at most the spring's
+friction torque (VELOCITY_CONTROL with that force: Coulomb friction with stiction, so the module stops
+inside a torque band and rests at different angles depending on the approach; 0 switches it off) and a
+pre-step hook applies ``tau = -k theta - c theta_dot`` in TORQUE_CONTROL before every physics step.
+The pad gets the spec's friction and contact softness.
+
+Encoders: the loop commands and reads encoder angles. With a calibration offset ``o`` the joint
+controller servoes ``true + o`` to the command, so the true arm stands ``o`` away from where the
+nominal kinematics put it; backlash and noise only enter the reported angles.
 """
 from __future__ import annotations
 
@@ -39,15 +45,25 @@ class EncoderModel:
         Quantisation step, radians (0: none).
     seed : int or None
         Seed of the noise generator.
+    offset_rad : tuple of float
+        Calibration error per joint, radians: encoder reading minus true angle at rest (empty: none).
+    backlash_rad : float
+        Gear play between the motor-side encoder and the link, radians: the reading leads the true
+        angle by half of it in the direction of the joint's last motion.
     """
 
     noise_std_rad: float = 0.0
     resolution_rad: float = 0.0
     seed: int | None = 0
+    offset_rad: tuple[float, ...] = ()
+    backlash_rad: float = 0.0
 
     def __post_init__(self) -> None:
-        if self.noise_std_rad < 0.0 or self.resolution_rad < 0.0:
-            raise ValueError(f"encoder noise and resolution must be >= 0, got {self}")
+        if self.noise_std_rad < 0.0 or self.resolution_rad < 0.0 or not self.backlash_rad >= 0.0:
+            raise ValueError(f"encoder noise, resolution and backlash must be >= 0, got {self}")
+        object.__setattr__(self, "offset_rad", tuple(float(v) for v in self.offset_rad))
+        if not all(np.isfinite(self.offset_rad)):
+            raise ValueError(f"encoder offset_rad must be finite, got {self.offset_rad}")
 
 
 @dataclass(frozen=True)
@@ -90,6 +106,8 @@ class SimArm(Robot):
     spring_stiffness_nm_per_rad, spring_damping_nms_per_rad : float or None
         Spring law (default: the spec's).
     encoder : EncoderModel
+    spring_friction_nm : float
+        Coulomb (and stiction) friction torque of each spring joint, N m (0: frictionless).
     control_steps : int
         Physics steps per control tick.
     position_gain, velocity_gain : float
@@ -104,6 +122,7 @@ class SimArm(Robot):
         spring_stiffness_nm_per_rad: float | None = None,
         spring_damping_nms_per_rad: float | None = None,
         encoder: EncoderModel = EncoderModel(),
+        spring_friction_nm: float = 0.0,
         control_steps: int = 4,
         position_gain: float = 0.3,
         velocity_gain: float = 1.0,
@@ -135,6 +154,15 @@ class SimArm(Robot):
         self._gains = (float(position_gain), float(velocity_gain))
         self.encoder = encoder
         self._rng = np.random.default_rng(encoder.seed)
+        if encoder.offset_rad and len(encoder.offset_rad) != spec.dof:
+            raise ValueError(f"encoder offset_rad has {len(encoder.offset_rad)} values, robot {spec.name!r} has "
+                             f"{spec.dof} joints")
+        self._offset_rad = np.array(encoder.offset_rad) if encoder.offset_rad else np.zeros(spec.dof)
+        self._backlash_side = np.zeros(spec.dof)  # -1, 0, +1: direction of each joint's last motion
+        self._backlash_anchor = None
+        if not (np.isfinite(spring_friction_nm) and spring_friction_nm >= 0.0):
+            raise ValueError(f"spring_friction_nm must be finite and >= 0 N m, got {spring_friction_nm}")
+        self.spring_friction_nm = float(spring_friction_nm)
         try:
             stiffness, damping = spring_stiffness_nm_per_rad, spring_damping_nms_per_rad
             self.set_spring(spec.spring_stiffness_nm_per_rad if stiffness is None else stiffness,
@@ -143,8 +171,9 @@ class SimArm(Robot):
         except ValueError:
             pb.removeBody(self.body, physicsClientId=client)
             raise
+        friction = [self.spring_friction_nm] * 2
         pb.setJointMotorControlArray(self.body, self._spring_joints, pb.VELOCITY_CONTROL,
-                                     targetVelocities=[0.0, 0.0], forces=[0.0, 0.0], physicsClientId=client)
+                                     targetVelocities=[0.0, 0.0], forces=friction, physicsClientId=client)
         pb.changeDynamics(
             self.body, self._pad,
             lateralFriction=spec.pad_lateral_friction,
@@ -166,8 +195,10 @@ class SimArm(Robot):
         """
         q = self._checked_q(q_rad, "q_rad")
         pb, client = self._pb, self._client
-        for index, value in zip(self._arm_joints, q):
+        for index, value in zip(self._arm_joints, q - self._offset_rad):
             pb.resetJointState(self.body, index, float(value), 0.0, physicsClientId=client)
+        self._backlash_side[:] = 0.0
+        self._backlash_anchor = None
         for index in self._spring_joints:
             pb.resetJointState(self.body, index, 0.0, 0.0, physicsClientId=client)
         self._command(q, np.zeros(self.dof))
@@ -268,14 +299,29 @@ class SimArm(Robot):
         """Actuated joint velocities (dof,), rad/s."""
         return np.array([s.velocity_rad_s for s in self._joint_states(self._arm_joints)])
 
+    def servo_positions(self) -> np.ndarray:
+        """What the joint controllers servo (dof,), radians: true angles plus the calibration offset."""
+        return self.true_joint_positions() + self._offset_rad
+
     def joint_positions(self) -> np.ndarray:
-        """Encoder readings (dof,), radians: true angles plus the encoder model's noise, quantised."""
-        q = self.true_joint_positions()
+        """Encoder readings (dof,), radians: true angles plus offset, backlash and noise, quantised."""
+        q = self.servo_positions()
+        if self.encoder.backlash_rad > 0.0:
+            q = q + 0.5 * self.encoder.backlash_rad * self._backlash_direction(q)
         if self.encoder.noise_std_rad > 0.0:
             q = q + self._rng.normal(0.0, self.encoder.noise_std_rad, q.shape)
         if self.encoder.resolution_rad > 0.0:
             q = np.round(q / self.encoder.resolution_rad) * self.encoder.resolution_rad
         return q
+
+    def _backlash_direction(self, q: np.ndarray) -> np.ndarray:
+        """Sign of each joint's last motion larger than the play (play operator on the angles)."""
+        if self._backlash_anchor is None:
+            self._backlash_anchor = q.copy()
+        moved = np.abs(q - self._backlash_anchor) > 0.5 * self.encoder.backlash_rad
+        self._backlash_side[moved] = np.sign(q - self._backlash_anchor)[moved]
+        self._backlash_anchor[moved] = q[moved]
+        return self._backlash_side
 
     def move_joints(self, q, speed_rad_s: float = 1.0) -> None:
         """Move to ``q`` along a straight joint-space line and wait until it is reached.
@@ -287,7 +333,7 @@ class SimArm(Robot):
         """
         target = self._checked_q(q, "q")
         self._follow(target[None], stop=None, speed_rad_s=speed_rad_s)
-        error = np.max(np.abs(self.true_joint_positions() - target))
+        error = np.max(np.abs(self.servo_positions() - target))
         if error > REACHED_TOLERANCE_RAD:
             raise MoveNotReachedError(
                 f"arm stopped {np.degrees(error):.2f} deg away from its target (blocked by a contact?)"
@@ -314,7 +360,7 @@ class SimArm(Robot):
     def hold(self, duration_s: float, stop: Callable[[], bool] | None = None) -> GuardedMoveResult:
         if not duration_s >= 0.0:
             raise ValueError(f"duration_s must be >= 0, got {duration_s}")
-        q = self.true_joint_positions()
+        q = self.servo_positions()
         self._command(q, np.zeros(self.dof))
         tick_s = self.control_steps * self.world.time_step_s
         for _ in range(int(np.ceil(duration_s / tick_s))):
@@ -388,7 +434,7 @@ class SimArm(Robot):
         kp, kd = self._gains
         self._pb.setJointMotorControlArray(
             self.body, self._arm_joints, self._pb.POSITION_CONTROL,
-            targetPositions=q.tolist(), targetVelocities=qdot.tolist(), forces=self.effort_nm.tolist(),
+            targetPositions=(q - self._offset_rad).tolist(), targetVelocities=qdot.tolist(), forces=self.effort_nm.tolist(),
             positionGains=[kp] * self.dof, velocityGains=[kd] * self.dof, physicsClientId=self._client,
         )
 
@@ -396,7 +442,7 @@ class SimArm(Robot):
         if not speed_rad_s > 0.0:
             raise ValueError(f"speed_rad_s must be positive, got {speed_rad_s}")
         tick_s = self.control_steps * self.world.time_step_s
-        start = self.true_joint_positions()
+        start = self.servo_positions()
         points = np.vstack([start[None], path])
         joint_speed = np.minimum(speed_rad_s, self.velocity_limit_rad_s)  # never beyond the URDF limits
         durations = np.max(np.abs(np.diff(points, axis=0)) / joint_speed, axis=1)
@@ -408,11 +454,11 @@ class SimArm(Robot):
         while True:
             segment = min(int(np.searchsorted(ends, t, side="right")), len(path) - 1)
             if stop is not None and stop():
-                self._command(self.true_joint_positions(), np.zeros(self.dof))
+                self._command(self.servo_positions(), np.zeros(self.dof))
                 return GuardedMoveResult(stopped=True, q=self.joint_positions(), waypoint_index=segment)
             if t >= total:
                 target, velocity = path[-1], np.zeros(self.dof)
-                reached = np.max(np.abs(self.true_joint_positions() - target)) <= REACHED_TOLERANCE_RAD
+                reached = np.max(np.abs(self.servo_positions() - target)) <= REACHED_TOLERANCE_RAD
                 if reached or ticks_after_end >= settle_ticks:
                     return GuardedMoveResult(stopped=False, q=self.joint_positions(), waypoint_index=len(path) - 1)
                 ticks_after_end += 1

@@ -45,6 +45,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--resume", action="store_true",
                         help="continue the stopped run in --out from its recorded contacts")
     parser.add_argument("--gui", action="store_true", help="show the PyBullet window (simulation only)")
+    parser.add_argument("--profile", help="simulation profile: ideal, datasheet-noise (default), hardware-like "
+                                          "or a .toml file (explorer/sim_profile.py); simulation only")
     add_rerun_argument(parser)
     args = parser.parse_args(argv)
     overrides = {k: v for k, v in dict(strategy=args.strategy, touches=args.touches, seed=args.seed).items()
@@ -58,9 +60,16 @@ def main(argv: list[str] | None = None) -> int:
             check_gui(parser)
     else:
         for flag, value in (("--object", args.object), ("--robot", args.robot), ("--gui", args.gui or None),
-                            ("--units", None if args.units == "m" else args.units)):
+                            ("--units", None if args.units == "m" else args.units), ("--profile", args.profile)):
             if value is not None:
                 parser.error(f"{flag} does not go with --config: set it in the configuration file")
+    if args.profile is not None:
+        from explorer.sim_profile import get_profile
+
+        try:
+            get_profile(args.profile)
+        except ValueError as error:
+            parser.error(f"--profile: {error}")
     check_out_dir(parser, args.out, resume=args.resume)
     if args.config is None:
         try:
@@ -78,7 +87,8 @@ def main(argv: list[str] | None = None) -> int:
         from explorer.run import RunSettings, explore
 
         settings = dataclasses.replace(RunSettings(object=object_name, robot=args.robot or "armar3",
-                                                   gui=args.gui), **overrides)
+                                                   gui=args.gui, profile=args.profile or "datasheet-noise"),
+                                       **overrides)
 
         def run(progress, status):
             return explore(settings, args.out, progress, args.resume, observer, status=status)

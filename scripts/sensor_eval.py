@@ -53,6 +53,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="presses per tilt in the normal experiment (default 10)")
     parser.add_argument("--benchmark-seconds", type=_non_negative_float, default=5.0,
                         help="simulated seconds of the robots speed benchmark; 0 skips it (default 5)")
+    parser.add_argument("--profile", default="datasheet-noise",
+                        help="simulation profile: ideal, datasheet-noise (default), hardware-like or a .toml file")
     parser.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     return parser
 
@@ -68,9 +70,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.out is not None:
         check_out_dir(parser, Path(args.out))
     from explorer.sensor_evaluation import EvaluationConfig, format_table, run_evaluation, to_json_dict, write_figures
+    from explorer.sim_profile import get_profile
 
     try:
-        config = EvaluationConfig(presses=args.presses, seed=args.seed, objects=tuple(args.objects),
+        config = EvaluationConfig(profile=get_profile(args.profile), presses=args.presses, seed=args.seed, objects=tuple(args.objects),
                                   free_motion_trials=args.free_motion, normal_tilts_deg=tuple(args.tilts),
                                   normal_presses_per_tilt=args.normal_presses, robot=args.robot,
                                   robots_benchmark_s=args.benchmark_seconds)

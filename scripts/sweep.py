@@ -34,6 +34,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--robot", default="armar3")
     parser.add_argument("--eval-every", type=int, default=5, help="touches between error evaluations")
     parser.add_argument("--mesh-resolution", type=int, default=96)
+    parser.add_argument("--profile", default="datasheet-noise",
+                        help="simulation profile: ideal, datasheet-noise (default), hardware-like or a .toml file")
     args = parser.parse_args(argv)
     if args.seeds < 1:
         parser.error("--seeds must be at least 1")
@@ -54,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
                              seeds=tuple(range(args.seeds)),
                              normals=(True, False) if args.no_normals_too else (True,),
                              touches=args.touches, robot=args.robot, eval_every=args.eval_every,
-                             mesh_resolution=args.mesh_resolution)
+                             mesh_resolution=args.mesh_resolution, profile=args.profile)
         report = run_sweep(config, args.out, workers=args.workers, ray_address=args.ray)
     except (ValueError, ImportError, FileNotFoundError) as exc:
         parser.error(str(exc))

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -27,6 +27,7 @@ from explorer.sensor_evaluation.scene import SUPPORTED_OBJECTS, check_object_nam
 from explorer.sensor_evaluation.trials import (FreeMotionProtocol, PressProtocol, PressSpec, TrialRecording,
                                       run_free_motion, run_press)
 from explorer.sensor_evaluation.variants import DEFAULT, sensor_variants
+from explorer.sim_profile import SimProfile, get_profile
 from sensor.sim_sensor import SimulatedSensorConfig
 
 REFERENCE_MEAN_NORMAL_ERROR_DEG = 7.3
@@ -59,8 +60,13 @@ class EvaluationConfig:
         Target force of the normal experiment's presses, newtons.
     robot : str
         Robot from the registry.
-    sensor : SimulatedSensorConfig
-        The sensor's default model (its variants come from :func:`sensor_variants`).
+    profile : SimProfile
+        Simulation profile (:mod:`explorer.sim_profile`): the spring's friction, the pad's friction
+        and, unless ``sensor`` is given, the sensor model. The arm's calibration errors do not enter
+        (the presses follow one joint path and the normal comes from the IMU).
+    sensor : SimulatedSensorConfig or None
+        The sensor's default model (its variants come from :func:`sensor_variants`); None: the
+        profile's.
     protocol : PressProtocol
     free_motion : FreeMotionProtocol
     robots_benchmark_s : float
@@ -77,12 +83,16 @@ class EvaluationConfig:
     normal_presses_per_tilt: int = 10
     normal_force_n: float = 2.0
     robot: str = "armar3"
-    sensor: SimulatedSensorConfig = field(default_factory=SimulatedSensorConfig)
+    profile: SimProfile = field(default_factory=lambda: get_profile(None))
+    sensor: SimulatedSensorConfig | None = None
     protocol: PressProtocol = field(default_factory=PressProtocol)
     free_motion: FreeMotionProtocol = field(default_factory=FreeMotionProtocol)
     robots_benchmark_s: float = 5.0
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "profile", get_profile(self.profile))
+        if self.sensor is None:
+            object.__setattr__(self, "sensor", self.profile.sensor_config())
         if isinstance(self.presses, bool) or not isinstance(self.presses, (int, np.integer)) or self.presses < 0:
             raise ValueError(f"presses must be a whole number >= 0, got {self.presses!r}")
         for name in ("free_motion_trials", "normal_presses_per_tilt"):
@@ -209,6 +219,7 @@ def run_evaluation(config: EvaluationConfig = EvaluationConfig(), rig: PressRig 
     rig = rig if rig is not None else build_rig(config.robot)
     if rig.spec.name != config.robot:
         raise ValueError(f"rig is for robot {rig.spec.name!r} but the config asks for {config.robot!r}")
+    rig = replace(rig, spec=config.profile.robot_spec(rig.spec), spring_friction_nm=config.profile.spring_friction_nm)
     variants = sensor_variants(config.sensor)
     live_only = {DEFAULT: variants[DEFAULT]}
     root = np.random.SeedSequence(config.seed)

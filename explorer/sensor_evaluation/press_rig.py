@@ -75,11 +75,14 @@ class PressRig:
     line : ApproachLine
     pad_width_m : float
         Side of the square pad face, metres.
+    spring_friction_nm : float
+        Friction torque of the spring joints of the simulated arm, N m (a profile's).
     """
 
     spec: RobotSpec
     line: ApproachLine
     pad_width_m: float
+    spring_friction_nm: float = 0.0
 
 
 def build_rig(robot: str = "armar3", max_depth_m: float = 0.045, spacing_m: float = 0.001) -> PressRig:

@@ -67,7 +67,8 @@ def to_json_dict(report: EvaluationReport) -> dict:
             "normal_presses": len(normal.trials) if normal else 0,
         },
         "robots_benchmark": asdict(report.robots_benchmark) if report.robots_benchmark is not None else None,
-        "config": {"seed": config.seed, "robot": config.robot, "objects": list(config.objects),
+        "config": {"seed": config.seed, "robot": config.robot, "profile": config.profile.name,
+                   "objects": list(config.objects),
                    "tilt_range_deg": list(config.tilt_range_deg), "force_range_n": list(config.force_range_n),
                    "normal_tilts_deg": list(config.normal_tilts_deg),
                    "normal_presses_per_tilt": config.normal_presses_per_tilt,
@@ -85,7 +86,8 @@ def _fmt(value, digits: int = 2) -> str:
 
 def format_table(report: EvaluationReport) -> str:
     """A human-readable summary of the report."""
-    lines = [f"Sensor evaluation ({report.config.robot}, seed {report.config.seed}), {report.wall_s:.0f} s wall "
+    lines = [f"Sensor evaluation ({report.config.robot}, profile {report.config.profile.name}, seed "
+             f"{report.config.seed}), {report.wall_s:.0f} s wall "
              f"on {report.machine}", ""]
     summary = report.press_summary
     forces = summary.held_force_n

@@ -243,7 +243,7 @@ def _new_world_and_arm(rig: PressRig):
     from robots.sim_world import SimWorld
 
     world = SimWorld(table=None)
-    return world, SimArm(world, rig.spec)
+    return world, SimArm(world, rig.spec, spring_friction_nm=rig.spring_friction_nm)
 
 
 def _steps(world, seconds: float) -> None:

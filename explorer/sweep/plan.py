@@ -13,7 +13,9 @@ from pathlib import Path
 from explorer.run import RunSettings
 
 #: Shared settings a restarted sweep must repeat exactly (its finished runs used them).
-SHARED_KEYS = ("robot", "touches", "eval_every", "mesh_resolution")
+SHARED_KEYS = ("robot", "touches", "eval_every", "mesh_resolution", "profile")
+#: What a sweep.json written before a key existed meant by it.
+_SHARED_DEFAULTS = {"profile": "datasheet-noise"}
 
 
 @dataclass(frozen=True)
@@ -36,6 +38,8 @@ class SweepConfig:
         Touches between the error-curve evaluations of a run (0: none).
     mesh_resolution : int
         Marching-cubes grid of each run's final reconstruction.
+    profile : str
+        Simulation profile name or TOML file (:mod:`explorer.sim_profile`).
     """
 
     objects: tuple[str, ...]
@@ -46,12 +50,18 @@ class SweepConfig:
     robot: str = "armar3"
     eval_every: int = 5
     mesh_resolution: int = 96
+    profile: str = "datasheet-noise"
 
     def __post_init__(self) -> None:
         import objects
         import objects.generated as generated
         import robots
         from explorer.strategies import STRATEGIES
+        from explorer.sim_profile import PROFILES, get_profile
+
+        get_profile(self.profile)  # raises naming the bad profile or parameter
+        if self.profile not in PROFILES:  # a file: workers may start elsewhere
+            object.__setattr__(self, "profile", str(Path(self.profile).resolve()))
 
         for name in ("objects", "strategies", "seeds", "normals"):
             values = getattr(self, name)
@@ -112,7 +122,8 @@ class SweepRun:
     def settings(self, config: SweepConfig) -> RunSettings:
         return RunSettings(object=self.object, robot=config.robot, strategy=self.strategy,
                            touches=config.touches, seed=self.seed, use_normals=self.use_normals,
-                           eval_every=config.eval_every, mesh_resolution=config.mesh_resolution)
+                           eval_every=config.eval_every, mesh_resolution=config.mesh_resolution,
+                           profile=config.profile)
 
 
 def object_label(name: str) -> str:
@@ -159,7 +170,8 @@ def prepare_sweep_dir(out_dir: Path, config: SweepConfig) -> None:
     record = out_dir / "sweep.json"
     if record.exists():
         previous = json.loads(record.read_text()).get("shared", {})
-        differing = {k: (previous.get(k), v) for k, v in config.shared().items() if previous.get(k) != v}
+        differing = {k: (previous.get(k), v) for k, v in config.shared().items()
+                     if previous.get(k, _SHARED_DEFAULTS.get(k)) != v}
         if differing:
             text = ", ".join(f"{k}={old!r} there, {new!r} now" for k, (old, new) in differing.items())
             raise ValueError(f"{out_dir} holds a sweep with other settings ({text}); "

@@ -50,7 +50,7 @@ def normal_error_vs_tilt_figure(tilts_deg, errors_deg, reference_deg: float | No
                label=f"mean over all {sum(len(e) for _, e in groups)} trials: {overall:.1f}°")
     if reference_deg is not None:
         ax.axhline(reference_deg, color="#2ca02c", linestyle="--", linewidth=1.4, gid="reference",
-                   label=f"reference: {reference_deg:.1f}°")
+                   label=f"reference sensor, reported mean over 0-50°: {reference_deg:.1f}°")
     ax.set_xlim(tilts[0] - 0.75 * spacing, tilts[-1] + 0.75 * spacing)
     ax.set_ylim(bottom=0)
     ax.set_xlabel("surface tilt (°)")

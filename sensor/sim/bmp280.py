@@ -26,6 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from common.pad_state import PadState
+from sensor.sim.pad_drift import PadDrift, PadDriftState
 from sensor.sim.pad_response import PadResponse
 from sensor.sim.sampling import SampleClock
 
@@ -108,6 +109,8 @@ class BMP280Config:
         Noise and drift; ``BMP280Noise.off()`` for noise-free runs.
     quantise : bool
         Round outputs to the setting's resolution (Table 4).
+    pad_drift : PadDrift
+        Creep and contact-temperature effects of the pad (default off).
     """
 
     oversampling: int = 4
@@ -118,6 +121,7 @@ class BMP280Config:
     pad: PadResponse = field(default_factory=PadResponse)
     noise: BMP280Noise = field(default_factory=BMP280Noise)
     quantise: bool = True
+    pad_drift: PadDrift = field(default_factory=PadDrift)
 
     def __post_init__(self) -> None:
         if self.oversampling not in RMS_NOISE_PA:
@@ -150,7 +154,7 @@ class BMP280Config:
 
     def noiseless(self) -> "BMP280Config":
         """The same settings with noise and drift switched off (quantisation kept)."""
-        return replace(self, noise=BMP280Noise.off())
+        return replace(self, noise=BMP280Noise.off(), pad_drift=PadDrift())
 
 
 @dataclass(frozen=True)
@@ -197,6 +201,8 @@ class SimulatedBMP280:
         self._ambient_pa = config.ambient_pressure_pa
         self._temperature_c = config.ambient_temperature_c
         self._rise_pa: float | None = None
+        self._pad_drift = PadDriftState(config.pad_drift)
+        self._drift_pa = 0.0
         self._filtered_pa: float | None = None
         self._last_step_t: float | None = None
         self._last_sample_t: float | None = None
@@ -208,7 +214,10 @@ class SimulatedBMP280:
         if self._rise_pa is None:
             self._rise_pa = pad.pressure_rise_pa(pad_state.normal_force_n)
         else:
-            self._rise_pa = pad.lag_step(self._rise_pa, pad_state.normal_force_n, t - self._last_step_t)
+            dt = t - self._last_step_t
+            self._rise_pa = pad.lag_step(self._rise_pa, pad_state.normal_force_n, dt)
+            if not self.config.pad_drift.is_off:
+                self._drift_pa = self._pad_drift.step(self._rise_pa, pad_state.normal_force_n > 0.0, dt)
         self._last_step_t = t
         if not self._clock.due(t):
             return None
@@ -223,7 +232,7 @@ class SimulatedBMP280:
             self._temperature_c += noise.temperature_random_walk_k_per_sqrt_s * math.sqrt(dt) * self._rng.standard_normal()
         self._last_sample_t = t
         temperature_offset = TEMPERATURE_OFFSET_PA_PER_K * (self._temperature_c - self.config.ambient_temperature_c)
-        raw = self._ambient_pa + temperature_offset + self._rise_pa
+        raw = self._ambient_pa + temperature_offset + self._rise_pa + self._drift_pa
         if self._raw_noise_pa:
             raw += self._raw_noise_pa * self._rng.standard_normal()
         coefficient = self.config.iir_coefficient

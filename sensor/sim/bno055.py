@@ -28,7 +28,12 @@ from the sensor figures above and stated assumptions:
   sensitivity of about 1 %, 0.6 deg) and the hand-cast 3.7 mm polyurethane pad, whose face is
   parallel to the PCB only to ~0.25 mm across 18 mm (0.8 deg); root-sum-square about 1 deg.
   Calibration removes it on hardware (``sensor.normal_estimation.ImuAlignment.body_in_imu_wxyz``);
-  an uncalibrated sensor reads every surface normal tilted by it.
+  an uncalibrated sensor reads every surface normal tilted by it;
+- in NDOF mode the heading comes from the magnetometer, which the arm's motors and steel disturb:
+  a constant heading error drawn at power-on (``heading_offset_std_rad``, 0 by default: the
+  default models IMU mode, whose heading only drifts);
+- the fused output lags the motion (``BNO055Config.latency_s``, 0 by default): each sample
+  reports the pose that was true that long ago.
 
 Output conventions follow the chip: the quaternion rotates sensor-frame vectors into the world frame;
 gravity is what the accelerometer reads at rest, +9.81 m/s^2 along the world's up axis, expressed in
@@ -37,6 +42,7 @@ the sensor frame; linear acceleration = accelerometer reading - gravity estimate
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -86,6 +92,9 @@ class BNO055Noise:
     mounting_misalignment_std_rad : float
         RMS per axis of the constant rotation from the sensor body (pad face) frame to the chip's
         axes, drawn at power-on, radians (module docstring: assembly tolerances, ~1 deg).
+    heading_offset_std_rad : float
+        RMS of a constant heading error about the world vertical, drawn at power-on, radians
+        (NDOF mode near motors; 0: IMU mode).
     """
 
     accel_noise_density_mps2_per_sqrt_hz: float = ACCEL_NOISE_DENSITY_MPS2_PER_SQRT_HZ
@@ -96,6 +105,7 @@ class BNO055Noise:
     tilt_bias_std_rad: float = _ASSUMED_ACCEL_BIAS_MPS2 / STANDARD_GRAVITY_MPS2
     tilt_bias_time_constant_s: float = 60.0
     mounting_misalignment_std_rad: float = _ASSUMED_MOUNTING_MISALIGNMENT_RAD
+    heading_offset_std_rad: float = 0.0
 
     def __post_init__(self) -> None:
         for name, value in vars(self).items():
@@ -127,6 +137,8 @@ class BNO055Config:
         Noise, bias and drift; ``BNO055Noise.off()`` for noise-free runs.
     quantise : bool
         Round outputs to the chip's LSBs (quaternion 2^-14, accelerations 0.01 m/s^2).
+    latency_s : float
+        Age of the pose a fused sample reports, seconds (0: none).
     """
 
     output_rate_hz: float = FUSION_RATE_HZ
@@ -134,12 +146,15 @@ class BNO055Config:
     gravity_mps2: float = STANDARD_GRAVITY_MPS2
     noise: BNO055Noise = field(default_factory=BNO055Noise)
     quantise: bool = True
+    latency_s: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("output_rate_hz", "accel_bandwidth_hz", "gravity_mps2"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"{name} must be finite and > 0, got {value}")
+        if not (math.isfinite(self.latency_s) and self.latency_s >= 0.0):
+            raise ValueError(f"latency_s must be finite and >= 0 s, got {self.latency_s}")
 
     @property
     def accel_noise_std_mps2(self) -> float:
@@ -202,18 +217,24 @@ class SimulatedBNO055:
         self._accel_bias_mps2 = noise.accel_bias_std_mps2 * rng.standard_normal(3)
         self._tilt_bias_rad = noise.tilt_bias_std_rad * rng.standard_normal(2)
         self.mounting = Rotation.from_rotvec(noise.mounting_misalignment_std_rad * rng.standard_normal(3))
-        self._yaw_bias_rad = 0.0
+        # Drawn last and only when on, so that profiles without it keep their earlier random streams.
+        self._yaw_bias_rad = noise.heading_offset_std_rad * rng.standard_normal() if noise.heading_offset_std_rad else 0.0
+        self._history: deque[PadState] = deque()
         self._last_t: float | None = None
         self._last_velocity_mps: np.ndarray | None = None
 
     def step(self, pad_state: PadState) -> ImuSample | None:
         """Advance to ``pad_state.t_s``; return a fused output if one is due."""
-        if not self._clock.due(pad_state.t_s):
+        now = pad_state.t_s
+        if self.config.latency_s > 0.0:
+            self._history.append(pad_state)
+            while len(self._history) > 1 and self._history[1].t_s <= now - self.config.latency_s:
+                self._history.popleft()
+        if not self._clock.due(now):
             return None
-        return self._measure(pad_state)
+        return self._measure(self._history[0] if self.config.latency_s > 0.0 else pad_state, now)
 
-    def _measure(self, pad_state: PadState) -> ImuSample:
-        t = pad_state.t_s
+    def _measure(self, pad_state: PadState, t: float) -> ImuSample:
         velocity = np.asarray(pad_state.lin_vel_mps, dtype=float)
         if self._last_t is None:
             acceleration_world = np.zeros(3)

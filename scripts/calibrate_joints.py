@@ -1,0 +1,189 @@
+"""Calibrate the arm's joint offsets by touching a known ball, in simulation, and show before/after.
+
+The lab procedure of :mod:`robots.joint_calibration` run on the simulated robot of a profile: a
+5 cm ball is placed at three known places in front of the arm; the fingertip touches it at
+``--touches`` poses (guarded approach stopped by the pressure detector, held while the spring
+settles, orientation from the IMU). The first two thirds of the touches calibrate, the last third
+are held out: their pad position computed from the encoders is compared with the simulator's true
+pad position before and after the offsets are applied. Writes ``joint_calibration.json`` and
+``joint_calibration.png`` into ``--out``.
+
+    python -m scripts.calibrate_joints --profile hardware-like --touches 36 --seed 0 --out DIR
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+BALL_RADIUS_M = 0.05
+PLACES_M = np.array([[0.0, 0.0, 0.0], [0.0, 0.12, 0.0], [0.0, -0.06, 0.12]])
+"""Ball centres relative to the robot's workspace centre, metres (known: measured once by the lab)."""
+STANDOFF_M = 0.012
+APPROACH_SPEED_MPS = 0.005
+HOLD_S = 0.6
+
+
+def touch_poses(kinematics, count: int, rng: np.random.Generator):
+    """(centres (n, 3), normals (n, 3), ik q (n, dof)) of reachable touches, places in turn."""
+    from robots.ik import solve_pad_ik
+
+    spec = kinematics.spec
+    facing = -kinematics.forward_kinematics(spec.home_q).z_axis
+    centres, normals = [], []
+    while len(normals) < 4 * count:
+        n = rng.standard_normal(3)
+        n /= np.linalg.norm(n)
+        if n @ facing > math.cos(math.radians(55)):
+            normals.append(n)
+            centres.append(np.asarray(spec.workspace_center_m, float) + PLACES_M[len(normals) % 3])
+    centres, normals = np.array(centres), np.array(normals)
+    ik = solve_pad_ik(kinematics, centres + (BALL_RADIUS_M + STANDOFF_M) * normals, -normals, q_seed=spec.home_q)
+    keep = np.flatnonzero(ik.success)[:count]
+    return centres[keep], normals[keep]
+
+
+def run_touches(profile, robot: str, count: int, seed: int, progress=None):
+    """Touch the ball ``count`` times; returns per-touch reported q, IMU body quaternion, true pad
+    position, ball centre, all (n, ...) arrays, and the arm's true offsets."""
+    import objects
+    import robots
+    from robots.ik import solve_pad_ik
+    from robots.kinematics import ArmKinematics
+    from robots.sim_arm import SimArm
+    from robots.sim_world import SimWorld
+    from sensor.contact_detection import PressureContactDetector
+    from sensor.normal_estimation import OrientationNotSettledError, estimate_normal
+    from sensor.sim_sensor import SimulatedTactileSensor
+
+    spec = profile.robot_spec(robots.load(robot))
+    kinematics = ArmKinematics(spec)
+    rng = np.random.default_rng(seed)
+    centres, normals = touch_poses(kinematics, count, rng)
+    ball = objects.load("sphere")
+    rows = []
+    with SimWorld(table=None) as world:
+        encoder = profile.encoder_model(spec.dof, seed)
+        arm = SimArm(world, spec, encoder=encoder, spring_friction_nm=profile.spring_friction_nm)
+        sensor = SimulatedTactileSensor(config=profile.sensor_config(), seed=seed)
+        world.add_step_listener(lambda _t: sensor.on_step(arm.pad_state()))
+        sensor.open()
+        handle = world.add_object(ball.urdf_path, centres[0], name="ball")
+        for k, (centre, normal) in enumerate(zip(centres, normals)):
+            arm.guarded_move(spec.home_q[None], lambda: False, speed_rad_s=0.8)
+            world.set_object_pose(handle, centre, (1.0, 0.0, 0.0, 0.0))
+            depths = np.arange(0.0, STANDOFF_M + 0.008, 0.001)
+            points = centre + (BALL_RADIUS_M + STANDOFF_M - depths)[:, None] * normal
+            seed_q = np.clip(arm.joint_positions(), kinematics.lower_rad, kinematics.upper_rad)
+            ik = solve_pad_ik(kinematics, points, np.tile(-normal, (len(depths), 1)), q_seed=seed_q)
+            if not ik.success.all():
+                continue
+            arm.guarded_move(ik.q_rad[:1], lambda: False, speed_rad_s=0.8)
+            world.step(60)
+            sensor.drain()
+            detector = PressureContactDetector()
+            readings = []
+
+            def touching():
+                for reading in sensor.drain():
+                    readings.append(reading)
+                    detector.update(reading)
+                return detector.in_contact
+
+            speed = APPROACH_SPEED_MPS * np.abs(np.diff(ik.q_rad, axis=0)).max() / 0.001
+            result = arm.guarded_move(ik.q_rad[1:], touching, speed_rad_s=speed)
+            baseline = detector.baseline_pa
+            arm.hold(HOLD_S)
+            hold = [r for r in sensor.drain()]
+            pad_true = arm.link_state(spec.pad_link).position_m
+            q_read = arm.joint_positions()
+            arm.guarded_move(ik.q_rad[:result.waypoint_index + 1][::-1], lambda: False, speed_rad_s=speed)
+            if not result.stopped:
+                continue
+            try:
+                estimate = estimate_normal(hold, baseline)
+            except OrientationNotSettledError:
+                continue
+            rows.append((q_read, estimate.body_quat_wxyz, pad_true, centre))
+            if progress:
+                progress(f"touch {k + 1}/{len(centres)}: {len(rows)} usable")
+        true_offsets = np.asarray(encoder.offset_rad) if encoder.offset_rad else np.zeros(spec.dof)
+    q, quats, pads, balls = (np.array(v) for v in zip(*rows))
+    return q, quats, pads, balls, true_offsets, kinematics
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="calibrate_joints", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--profile", default="hardware-like", help="simulation profile (default hardware-like)")
+    parser.add_argument("--robot", default="armar3")
+    parser.add_argument("--touches", type=int, default=36, help="touches in all (2/3 calibrate, 1/3 held out)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args(argv)
+    from explorer.sim_profile import get_profile
+
+    try:
+        profile = get_profile(args.profile)
+    except ValueError as error:
+        parser.error(str(error))
+    if args.touches < 12:
+        parser.error(f"--touches must be at least 12 (8 to calibrate 7 joints, 4 held out), got {args.touches}")
+    from robots.joint_calibration import SphereTouches, fit_joint_offsets
+
+    started = time.perf_counter()
+    q, quats, pads, balls, truth, kinematics = run_touches(
+        profile, args.robot, args.touches, args.seed, progress=lambda line: print(line, file=sys.stderr, flush=True))
+    n_fit = (2 * len(q)) // 3
+    fit = fit_joint_offsets(kinematics, SphereTouches(q[:n_fit], quats[:n_fit], balls[:n_fit], BALL_RADIUS_M))
+
+    def errors_mm(offset):
+        computed = kinematics.pad_position_from_orientation(q[n_fit:] - offset, quats[n_fit:])
+        return 1e3 * np.linalg.norm(computed - pads[n_fit:], axis=1)
+
+    before, after = errors_mm(np.zeros_like(fit.offset_rad)), errors_mm(fit.offset_rad)
+    result = {
+        "profile": profile.name, "robot": args.robot, "seed": args.seed, "touches_used": int(len(q)),
+        "calibration_touches": int(n_fit), "held_out_touches": int(len(q) - n_fit),
+        "true_offset_deg": np.degrees(truth).round(4).tolist(),
+        "fitted_offset_deg": np.degrees(fit.offset_rad).round(4).tolist(),
+        "singular_values_m_per_rad": fit.singular_values.round(5).tolist(),
+        "ball_residual_rms_mm": {"before": float(1e3 * np.sqrt(np.mean(fit.residual_before_m**2))),
+                                 "after": float(1e3 * np.sqrt(np.mean(fit.residual_after_m**2)))},
+        "held_out_pad_error_mm": {"before_mean": float(before.mean()), "before_max": float(before.max()),
+                                  "after_mean": float(after.mean()), "after_max": float(after.max())},
+        "wall_s": time.perf_counter() - started,
+    }
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "joint_calibration.json").write_text(json.dumps(result, indent=2))
+    _figure(before, after, result, args.out / "joint_calibration.png")
+    print(json.dumps(result, indent=2))
+    return 0
+
+
+def _figure(before, after, result, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    index = np.arange(len(before))
+    ax.bar(index - 0.2, before, 0.4, label=f"before (mean {before.mean():.1f} mm)", color="tab:red")
+    ax.bar(index + 0.2, after, 0.4, label=f"after (mean {after.mean():.1f} mm)", color="tab:green")
+    ax.set_xlabel("held-out touch")
+    ax.set_ylabel("pad position error (mm)")
+    ax.set_title(f"Joint-offset calibration on a ball, {result['robot']}, profile {result['profile']}")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

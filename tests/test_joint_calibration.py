@@ -1,0 +1,85 @@
+"""Joint-offset calibration from sphere touches recovers injected offsets against the known truth."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import robots
+from robots.ik import solve_pad_ik
+from robots.joint_calibration import SphereTouches, fit_joint_offsets, sphere_residuals_m
+from robots.kinematics import ArmKinematics
+from robots.rotations import matrix_to_quat
+
+
+@pytest.fixture(scope="module")
+def kinematics():
+    return ArmKinematics(robots.load("armar3"))
+
+
+@pytest.fixture(scope="module")
+def true_touches(kinematics):
+    """Exact touches of a 5 cm ball at three known places: true joint angles, pad flat on the surface."""
+    spec = kinematics.spec
+    places = np.asarray(spec.workspace_center_m, float) + np.array([[0, 0, 0], [0.0, 0.12, 0.0], [0, -0.06, 0.12]])
+    radius = 0.05
+    rng = np.random.default_rng(1)
+    facing = -kinematics.forward_kinematics(spec.home_q).z_axis  # the surface the arm faces at home
+    normals, centres = [], []
+    while len(normals) < 60:
+        n = rng.standard_normal(3)
+        n /= np.linalg.norm(n)
+        if n @ facing > math.cos(math.radians(60)):
+            normals.append(n)
+            centres.append(places[len(normals) % 3])
+    normals, centres = np.array(normals), np.array(centres)
+    ik = solve_pad_ik(kinematics, centres + radius * normals, -normals, q_seed=spec.home_q)
+    assert ik.success.sum() >= 30
+    q_true = ik.q_rad[ik.success]
+    body = kinematics.forward_kinematics(q_true, spec.sensor_body_link)
+    return q_true, matrix_to_quat(body.rotation), centres[ik.success], radius
+
+
+def test_exact_touches_give_back_the_injected_offsets(kinematics, true_touches):
+    q_true, quats, centre, radius = true_touches
+    injected = np.radians([0.6, -0.4, 0.3, 0.5, -0.7, 0.2, -0.3])
+    touches = SphereTouches(q_true + injected, quats, centre, radius)
+    assert np.abs(sphere_residuals_m(kinematics, touches, injected)).max() < 1e-3  # consistent (IK tolerance)
+    fit = fit_joint_offsets(kinematics, touches, ridge_m_per_rad=0.0)
+    assert np.abs(fit.residual_before_m).max() > 3e-3  # the error was there
+    assert np.abs(fit.residual_after_m).max() < 1e-3
+    # shoulder and elbow offsets move the fingertip most and are recovered one by one
+    np.testing.assert_allclose(fit.offset_rad[:4], injected[:4], atol=math.radians(0.1))
+    # the forearm and wrist offsets show only through the short lever to the pivot (their singular
+    # values are ~100x smaller): what matters is the pivot the loop computes, also at untouched poses
+    spec = kinematics.spec
+    held_out = spec.home_q + np.radians(15.0) * np.random.default_rng(2).uniform(-1, 1, (50, 7))
+    truth = kinematics.forward_kinematics(held_out, spec.pivot_link).position_m
+    before = kinematics.forward_kinematics(held_out + injected, spec.pivot_link).position_m - truth
+    after = kinematics.forward_kinematics(held_out + injected - fit.offset_rad, spec.pivot_link).position_m - truth
+    assert np.linalg.norm(before, axis=1).mean() > 5e-3
+    assert np.linalg.norm(after, axis=1).mean() < 0.3 * np.linalg.norm(before, axis=1).mean()
+
+
+def test_noisy_touches_still_shrink_the_offset_error(kinematics, true_touches):
+    q_true, quats, centre, radius = true_touches
+    rng = np.random.default_rng(7)
+    injected = np.radians(0.5) * rng.standard_normal(7)
+    q_read = q_true + injected + np.radians(0.05) * rng.standard_normal(q_true.shape)  # backlash, resolution
+    turned = Rotation.from_rotvec(np.radians(2.0) * rng.standard_normal((len(quats), 3)))  # IMU error
+    noisy = (Rotation.from_quat(quats[:, [1, 2, 3, 0]]) * turned).as_quat()[:, [3, 0, 1, 2]]
+    fit = fit_joint_offsets(kinematics, SphereTouches(q_read, noisy, centre, radius))
+    assert np.sqrt(np.mean(fit.residual_after_m**2)) < 0.3 * np.sqrt(np.mean(fit.residual_before_m**2))
+    # the pad position error the offsets cause, over the touched poses, before vs after
+    truth = kinematics.forward_kinematics(q_true).position_m
+    before = kinematics.forward_kinematics(q_true + injected).position_m - truth
+    after = kinematics.forward_kinematics(q_true + injected - fit.offset_rad).position_m - truth
+    assert np.linalg.norm(after, axis=1).mean() < 0.6 * np.linalg.norm(before, axis=1).mean()
+
+
+def test_too_few_touches_are_refused(kinematics, true_touches):
+    q_true, quats, centre, radius = true_touches
+    with pytest.raises(ValueError, match="cannot determine 7 joint offsets"):
+        fit_joint_offsets(kinematics, SphereTouches(q_true[:3], quats[:3], centre[:3], radius))
