@@ -11,7 +11,7 @@ import robots
 from robots.ik import solve_pad_ik
 from robots.joint_calibration import SphereTouches, fit_joint_offsets, sphere_residuals_m
 from robots.kinematics import ArmKinematics
-from robots.rotations import matrix_to_quat
+from common.rotations import matrix_to_quat
 
 
 @pytest.fixture(scope="module")

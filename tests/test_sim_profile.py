@@ -8,7 +8,7 @@ from dataclasses import fields, replace
 import numpy as np
 import pytest
 
-from sensor.pad_state import PadState
+from common.pad_state import PadState
 from sensor.sim.bno055 import BNO055Config, BNO055Noise, SimulatedBNO055
 from sensor.sim.pad_drift import PadDrift, PadDriftState
 from explorer.sim_profile import (PARAMETER_SOURCES, PROFILES, SimProfile, format_parameter_table, get_profile,
@@ -141,9 +141,9 @@ def test_rig_config_names_the_profile(tmp_path):
 
 
 def test_same_seed_same_bytes_of_the_sensor_stream_for_a_short_press():
-    from sensor.evaluation.rig import build_rig
-    from sensor.evaluation.scene import random_touch_site
-    from sensor.evaluation.trials import PressSpec, run_press
+    from explorer.sensor_evaluation.press_rig import build_rig
+    from explorer.sensor_evaluation.scene import random_touch_site
+    from explorer.sensor_evaluation.trials import PressSpec, run_press
     import objects
 
     profile = PROFILES["hardware-like"]
