@@ -43,8 +43,6 @@ def main(argv: list[str] | None = None) -> None:
     check_object(parser, args.object)
     check_robot(parser, args.robot)
     check_out_dir(parser, args.out)
-    if not args.headless:
-        check_gui(parser, "the window", "pass --headless with --script")
     if args.script is not None:
         from explorer.teleop.devices import ScriptedDevice
 
@@ -52,8 +50,9 @@ def main(argv: list[str] | None = None) -> None:
             ScriptedDevice.from_json(args.script, lambda: 0.0)
         except ValueError as err:
             parser.error(str(err))
-
     observer = observer_from_argument(parser, args.rerun, "tactile-teleop", surface_every=1)
+    if not args.headless:
+        check_gui(parser, "the window", "pass --headless with --script")
 
     import torch
 
