@@ -43,8 +43,6 @@ def main(argv: list[str] | None = None) -> None:
     check_object(parser, args.object)
     check_robot(parser, args.robot)
     check_out_dir(parser, args.out)
-    if not args.headless:
-        check_gui(parser, "the window", "pass --headless with --script")
     if args.script is not None:
         from explorer.teleop.devices import ScriptedDevice
 
@@ -54,6 +52,8 @@ def main(argv: list[str] | None = None) -> None:
             parser.error(str(err))
 
     observer = observer_from_argument(parser, args.rerun, "tactile-teleop")
+    if not args.headless:
+        check_gui(parser, "the window", "pass --headless with --script")
 
     import torch
 

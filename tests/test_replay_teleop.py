@@ -114,7 +114,7 @@ def test_a_start_threshold_above_a_press_drops_that_touch_only(session, tmp_path
         assert [r.t_s for r in high.contact.readings] == [r.t_s for r in low.contact.readings]
         assert high.baseline_pa > low.baseline_pa
         assert max(r.pressure_pa for r in high.contact.readings) - high.baseline_pa > threshold
-        shift = (high.contact.force_n - low.contact.force_n) * softened.pad_compliance_m_per_n
+        shift = (high.contact.force_n - low.contact.force_n) * softened.pad.compliance_m_per_n
         np.testing.assert_allclose(high.position_m, low.position_m + shift * low.normal, rtol=0, atol=1e-9)
     assert raised.metrics["contacts"] == len(peaks) - 1 and raised.metrics["misses"] == 1
 
