@@ -165,7 +165,6 @@ class ExplorationLoop:
         self.times = PhaseTimes()
         self._contact_readings: list[Reading] = []
         self._baseline_pa: float | None = None
-        self._last_reading_t_s: float | None = None
         self._press_start_s = -np.inf
         self._follow_up: Touch | None = None
 
@@ -276,8 +275,8 @@ class ExplorationLoop:
                                plan.stand.yaw_rad, plan.stand.tilt_rad, t_s=self.robot.time_s())
         self._poll()
         self.detector.reset()
-        # The press is the readings after the last one drained here, t0 < t (as replay takes it).
-        press_start = self._last_reading_t_s if self._last_reading_t_s is not None else self.robot.time_s()
+        # The press is the readings stamped after t0, t0 < t (as replay takes it).
+        press_start = self.robot.time_s()
         self._press_start_s = press_start
         self._contact_readings = []
         speed = self._joint_speed(plan)
@@ -366,7 +365,6 @@ class ExplorationLoop:
     def _poll(self) -> list[Reading]:
         readings = self.sensor.drain()
         if readings:
-            self._last_reading_t_s = readings[-1].t_s
             self.recorder.readings(readings)
             self.recorder.joint_state(self.robot.time_s(), self.robot.joint_positions())
         return readings

@@ -108,8 +108,8 @@ class TouchOutcome:
     t_s : float
         Time of the outcome (the contact's time for a contact), seconds.
     press_t_s : (float, float) or None
-        The last reading before the detector reset .. the end of the hold: replay detects the
-        contact in the readings with ``t0 < t <= t1``.
+        Detector reset .. end of the hold: the press is the readings with ``t0 < t <= t1``
+        (for the loop's detector and for replay alike).
     strategy : str
         The strategy that proposed the touch (``realign`` for a repeat).
     free_space_m : (k, 3) float or None
