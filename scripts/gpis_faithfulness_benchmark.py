@@ -88,7 +88,8 @@ class _Fitter:
 METHODS = {"default": _current_default, "old-default": _old_default,
            "normal-noise-0.1": _Configured(normal_noise=0.1),
            "normal-noise-0.05": _Configured(normal_noise=0.05),
-           "matern32-ml": _Configured(ml_matern32=(0.02, 0.04, 0.08, 0.16))}
+           "matern32-ml": _Configured(ml_matern32=(0.02, 0.04, 0.08, 0.16)),
+           "opposing-normals": _Configured(opposing_normal_noise=0.05)}
 
 
 def object_names(which: str, quick: bool) -> list[str]:
