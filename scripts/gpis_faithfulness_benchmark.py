@@ -263,7 +263,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--contacts", default="100,200,400")
     parser.add_argument("--draws", type=int, default=3, help="contact draws per object and N")
     parser.add_argument("--quick", action="store_true",
-                        help="one object per family and one draw (a few minutes per method on 2 cores)")
+                        help="the first object of each family and one draw (48 cases per method and set)")
     parser.add_argument("--objects", default=None, help="comma-separated names instead of --set")
     parser.add_argument("--resolution", type=int, default=96, help="meshing samples per side")
     parser.add_argument("--samples", type=int, default=10000, help="surface samples per direction")
