@@ -46,6 +46,15 @@ class GPIS:
     noise : float
         Standard deviation of the value observations (units of ``f``: metres near the surface when
         normals are used). Must be > 0: it keeps repeated contacts well posed.
+    opposing_normal_noise : float, optional
+        Normal noise for contacts that have another contact within ``opposing_radius_m`` with an
+        opposing normal (the two sides of a thin wall or tip); None uses ``normal_noise`` for all.
+        The default, 0.05, was chosen on the generated tuning set (BENCHMARKS.md, issue 10): the
+        loose ``normal_noise`` lets the smooth kernel bend the two sides of a 4-7 mm wall into a
+        slab that runs on past the rim. With incremental :meth:`add` only the later contact of
+        a pair is tightened (rows in the factor keep their noise); :meth:`fit` tightens both.
+    opposing_radius_m : float
+        The neighbourhood of ``opposing_normal_noise``, metres.
     normal_noise : float
         Standard deviation of each gradient component of the normal observations (unitless;
         0.1 is about a 6 deg direction error). The default, 0.2, is twice the sensor's error: a
@@ -62,7 +71,8 @@ class GPIS:
 
     def __init__(self, kernel: str | Kernel = "thin_plate", noise: float = 5e-4,
                  normal_noise: float = 0.2, use_normals: bool = True,
-                 bounds: Sequence[Sequence[float]] | None = None, trend: float | None = 3.0):
+                 bounds: Sequence[Sequence[float]] | None = None, trend: float | None = 3.0,
+                 opposing_normal_noise: float | None = 0.05, opposing_radius_m: float = 0.015):
         if isinstance(kernel, str) and kernel not in kernel_names():
             raise ValueError(f"unknown kernel {kernel!r}; choose one of {', '.join(kernel_names())} "
                              "or pass a Kernel instance")
@@ -73,6 +83,14 @@ class GPIS:
                 raise ValueError(f"{name} must be a positive finite standard deviation, got {value!r}")
         if trend is not None and not (np.isfinite(trend) and trend > 0):
             raise ValueError(f"trend must be None or a positive scale, got {trend!r}")
+        if opposing_normal_noise is not None and not (np.isfinite(opposing_normal_noise)
+                                                      and opposing_normal_noise > 0):
+            raise ValueError(f"opposing_normal_noise must be None or a positive standard deviation, "
+                             f"got {opposing_normal_noise!r}")
+        if not (np.isfinite(opposing_radius_m) and opposing_radius_m > 0):
+            raise ValueError(f"opposing_radius_m must be a positive length, got {opposing_radius_m!r}")
+        self.opposing_normal_noise = None if opposing_normal_noise is None else float(opposing_normal_noise)
+        self.opposing_radius_m = float(opposing_radius_m)
         self.trend_spec = None if trend is None else float(trend)
         self.trend: QuadraticTrend | None = None
         self.kernel_spec = kernel
@@ -365,9 +383,30 @@ class GPIS:
         else:
             comps = np.tile(np.arange(4), (k, 1))
             y = np.column_stack([values, -normals])
-            var = np.column_stack([np.full(k, self.noise**2), np.full((k, 3), self.normal_noise**2)])
+            normal_std = self._normal_noise_per_contact(points, normals)
+            var = np.column_stack([np.full(k, self.noise**2), np.repeat(normal_std[:, None] ** 2, 3, 1)])
         offsets = np.repeat(np.arange(k), comps.shape[1])
         return offsets, comps.ravel(), y.ravel(), var.ravel()
+
+    def _normal_noise_per_contact(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """(k,) normal noise of new contacts: ``opposing_normal_noise`` for those with a contact
+        within ``opposing_radius_m`` whose normal opposes theirs (cosine < -0.5: the two sides of
+        a thin wall or a sharp tip), ``normal_noise`` otherwise.
+
+        Contacts already in the factor keep the noise they were added with until the next fit.
+        """
+        out = np.full(len(points), self.normal_noise)
+        if self.opposing_normal_noise is None:
+            return out
+        from scipy.spatial import cKDTree
+
+        others_p = np.vstack([self.contact_points, points])
+        others_n = np.vstack([self.contact_normals, normals]) if self._contact_normals else normals
+        tree = cKDTree(others_p)
+        for i, near in enumerate(tree.query_ball_point(points, self.opposing_radius_m)):
+            if near and np.min(others_n[near] @ normals[i]) < -0.5:
+                out[i] = self.opposing_normal_noise
+        return out
 
     def _stage(self, points, values, normals, noise=None):
         """Append observation rows without touching the factor."""

@@ -41,9 +41,9 @@ def timed(fn, repeat: int = 1) -> float:
     return statistics.median(times)
 
 
-def measure(n: int, grid: int, candidates: int, dense: bool, seed: int = 0) -> dict:
+def measure(n: int, grid: int, candidates: int, dense: bool, seed: int = 0, **gpis_kwargs) -> dict:
     points, normals = sphere_contacts(n + 20, seed)
-    gp = GPIS(bounds=BOUNDS)
+    gp = GPIS(bounds=BOUNDS, **gpis_kwargs)
     fit_s = timed(lambda: gp.fit(points[:n], normals[:n]), repeat=2 if n <= 1000 else 1)
 
     add_times = []
@@ -109,14 +109,27 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--dense-up-to", type=int, default=1000,
                         help="also time the dense grid for sizes up to this")
     parser.add_argument("--out", type=Path, help="write the Markdown table here")
+    parser.add_argument("--baseline-normal-noise", type=float, default=None,
+                        help="also time GPIS(normal_noise=this, opposing_normal_noise=None) (0.2: the "
+                             "default before issue 10) and print add and variance ratios against it")
     args = parser.parse_args(argv)
     sizes = [int(s) for s in args.sizes.split(",")]
     rows = []
     for n in sizes:
         rows.append(measure(n, args.grid, args.candidates, dense=n <= args.dense_up_to))
         print(f"measured {n} contacts", flush=True)
+    ratios = ""
+    if args.baseline_normal_noise is not None:
+        lines = [f"\nBaseline GPIS(normal_noise={args.baseline_normal_noise}) in the same run:"]
+        for r in rows:
+            b = measure(r["n"], args.grid, args.candidates, dense=False,
+                        normal_noise=args.baseline_normal_noise, opposing_normal_noise=None)
+            lines.append(f"{r['n']} contacts: add {r['add_ms']:.1f} vs {b['add_ms']:.1f} ms "
+                         f"({r['add_ms'] / b['add_ms']:.2f}x), incremental variance {r['var_inc_ms']:.1f} vs "
+                         f"{b['var_inc_ms']:.1f} ms ({r['var_inc_ms'] / b['var_inc_ms']:.2f}x)")
+        ratios = "\n".join(lines) + "\n"
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    text = (f"Machine: {machine()}\n\n{table(rows, args.grid, args.candidates)}\n\n"
+    text = (f"Machine: {machine()}\n\n{table(rows, args.grid, args.candidates)}\n{ratios}\n"
             f"Peak resident memory of the benchmark process: {peak_mb:.0f} MB\n")
     print(text)
     if args.out:

@@ -367,3 +367,41 @@ def test_factor_surface_for_trackers_is_consistent():
     np.testing.assert_allclose(prior, gp.variance(x), rtol=1e-9, atol=1e-15)
     gp.fit(points, normals)
     assert gp.generation == generation + 1
+
+
+def _thin_slab_contacts(n, thickness=0.004, seed=0):
+    """Contacts on both faces of a 6 x 6 cm slab ``thickness`` thick: normals +z on top, -z below."""
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(-0.03, 0.03, (n, 2))
+    top = rng.random(n) < 0.5
+    z = np.where(top, thickness / 2, -thickness / 2)
+    normals = np.zeros((n, 3))
+    normals[:, 2] = np.where(top, 1.0, -1.0)
+    return np.column_stack([xy, z]), normals
+
+
+def test_opposing_normal_noise_applies_to_thin_walls_only():
+    gp = GPIS(bounds=BOUNDS, opposing_normal_noise=0.05)
+    slab_points, slab_normals = _thin_slab_contacts(60)
+    noise = gp._normal_noise_per_contact(slab_points, slab_normals)
+    # every contact with an opposite-face contact within 15 mm is tightened, the rest are not
+    opposite = [np.any((np.linalg.norm(slab_points - p, axis=1) <= 0.015) & (slab_normals[:, 2] == -n[2]))
+                for p, n in zip(slab_points, slab_normals)]
+    np.testing.assert_array_equal(noise == 0.05, opposite)
+    assert np.mean(opposite) > 0.8
+    sphere_points, sphere_normals = sphere_contacts(100)  # 5 cm sphere: no opposing neighbour
+    assert np.all(gp._normal_noise_per_contact(sphere_points, sphere_normals) == gp.normal_noise)
+    x = 0.07 * np.random.default_rng(7).uniform(-1, 1, (100, 3))
+    plain = GPIS(bounds=BOUNDS).fit(sphere_points, sphere_normals)
+    np.testing.assert_array_equal(gp.fit(sphere_points, sphere_normals).mean(x), plain.mean(x))
+
+
+def test_opposing_normal_noise_sees_contacts_already_added():
+    points, normals = _thin_slab_contacts(2, seed=3)
+    points[1] = points[0] + [0.005, 0.0, 0.0]
+    points[:, 2] = [0.002, -0.002]
+    normals[:, 2] = [1.0, -1.0]
+    gp = GPIS(bounds=BOUNDS, opposing_normal_noise=0.05).fit(points[:1], normals[:1])
+    assert gp._normal_noise_per_contact(points[1:], normals[1:])[0] == 0.05
+    with pytest.raises(ValueError, match="opposing_normal_noise"):
+        GPIS(opposing_normal_noise=0.0)
