@@ -31,6 +31,9 @@ _LAZY = {
     "EncoderModel": "robots.sim_arm",
     "ArmContact": "robots.sim_arm",
     "MoveNotReachedError": "robots.interface",
+    "CalibratedRobot": "robots.joint_calibration",
+    "SphereTouches": "robots.joint_calibration",
+    "fit_joint_offsets": "robots.joint_calibration",
 }
 
 __all__ = ["RobotRegistry", "RobotSpec", "load", "names", "register", *_LAZY]
