@@ -31,6 +31,10 @@ RESUME_GAP_S = 1.0
 #: Settings a resumed run may change: the budget and how results are evaluated and drawn.
 CHANGEABLE_SETTINGS = frozenset({"touches", "gui", "eval_every", "mesh_resolution"})
 
+#: Settings older sessions recorded in another place: (section, key) then -> (section, key) now.
+#: A resumed run compares the recorded value with the one at its new place.
+MOVED_SETTINGS = {("loop", "pad_compliance_m_per_n"): ("pad", "compliance_m_per_n")}
+
 
 @dataclass(frozen=True)
 class RecordedRun:
@@ -129,14 +133,29 @@ def check_resumable(stored: dict, settings: dict) -> None:
     """Refuse to resume with settings that would make the run a different experiment.
 
     ``stored`` and ``settings`` are run settings as dicts (the stored one from the session's
-    ``configuration``); only :data:`CHANGEABLE_SETTINGS` may differ.
+    ``configuration``); only :data:`CHANGEABLE_SETTINGS` may differ. Settings that moved
+    (:data:`MOVED_SETTINGS`) are compared at their new place.
     """
+    stored = _moved_to_current_places(stored)
     differing = sorted(key for key in stored.keys() & settings.keys()
                        if key not in CHANGEABLE_SETTINGS and stored[key] != settings[key])
     if differing:
         details = "; ".join(f"{key}: recorded {stored[key]!r}, now {settings[key]!r}" for key in differing)
         raise ValueError(f"cannot resume with different settings ({details}); only "
                          f"{', '.join(sorted(CHANGEABLE_SETTINGS))} may change")
+
+
+def _moved_to_current_places(stored: dict) -> dict:
+    """A copy of ``stored`` with each of :data:`MOVED_SETTINGS` taken out of its old section into its new one."""
+    stored = {key: dict(value) if isinstance(value, dict) else value for key, value in stored.items()}
+    for (old_section, old_key), (new_section, new_key) in MOVED_SETTINGS.items():
+        section = stored.get(old_section)
+        if isinstance(section, dict) and old_key in section:
+            value = section.pop(old_key)
+            stored.setdefault(new_section, {})
+            if isinstance(stored[new_section], dict):
+                stored[new_section].setdefault(new_key, value)
+    return stored
 
 
 def rewrite_contacts_csv(out_dir: Path, touches: list[TouchOutcome]) -> None:

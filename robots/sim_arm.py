@@ -295,10 +295,6 @@ class SimArm(Robot):
         """Actuated joint positions (dof,), radians, without encoder effects."""
         return np.array([s.position_rad for s in self._joint_states(self._arm_joints)])
 
-    def joint_velocities(self) -> np.ndarray:
-        """Actuated joint velocities (dof,), rad/s."""
-        return np.array([s.velocity_rad_s for s in self._joint_states(self._arm_joints)])
-
     def servo_positions(self) -> np.ndarray:
         """What the joint controllers servo (dof,), radians: true angles plus the calibration offset."""
         return self.true_joint_positions() + self._offset_rad

@@ -131,6 +131,15 @@ def test_resuming_with_other_settings_or_without_a_run_is_refused(stopped_run, t
         check_resumable(dict(touches=3, seed=0), dict(touches=3, seed=1))
 
 
+def test_a_setting_recorded_in_its_old_place_is_compared_at_its_new_place():
+    now = dict(seed=0, loop=dict(realign=True), pad=dict(compliance_m_per_n=3e-4))
+    older = dict(seed=0, loop=dict(realign=True, pad_compliance_m_per_n=3e-4), pad={})
+    check_resumable(older, now)  # the same experiment, recorded before the setting moved
+    changed = dict(seed=0, loop=dict(realign=True, pad_compliance_m_per_n=5e-4), pad={})
+    with pytest.raises(ValueError, match="pad: recorded"):
+        check_resumable(changed, now)
+
+
 def test_the_time_offset_continues_after_the_stopped_part():
     assert resume_time_offset(100.0, 0.5, gap_s=1.0) == pytest.approx(100.5)
     assert resume_time_offset(100.0, 500.0) == 0.0  # a clock that did not restart is left alone

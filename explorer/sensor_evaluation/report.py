@@ -43,7 +43,10 @@ def to_json_dict(report: EvaluationReport) -> dict:
         for name, score in report.detection.items()
     }
     normal = report.normal
-    per_tilt = (lambda values: {_tilt_key(t): _finite_or_none(v) for t, v in zip(normal.tilts_deg, values)})
+
+    def per_tilt(values):
+        return {_tilt_key(t): _finite_or_none(v) for t, v in zip(normal.tilts_deg, values)}
+
     forces = report.press_summary.held_force_n
     result = {
         "detection": detection,
