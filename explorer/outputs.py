@@ -1,37 +1,24 @@
 """The outputs a finished (or stopped) run and a replay both write: mesh, error metrics, figures;
 and how every output file is written: whole or not at all.
 
-Each file is written to a hidden temporary file next to it, flushed to disk and renamed over the
-target (``os.replace``), so a reader (or a run resumed after a crash or a full disk) finds either
-the previous content or the new one, never a truncated file; on failure the temporary file is
-removed and the error re-raised.
+Each file goes through :func:`common.atomic_files.write_bytes_atomically` (temporary file, fsync,
+``os.replace``): a reader finds the previous content or the new one, never a truncated file.
 """
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from common.atomic_files import write_bytes_atomically
 from explorer.evaluation import reconstruction_errors
 
 
 def write_bytes(path: Path, data: bytes) -> Path:
     """Replace ``path`` by ``data`` atomically; returns ``path``."""
-    path = Path(path)
-    temporary = path.with_name(f".{path.name}.tmp")
-    try:
-        with open(temporary, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(temporary, path)
-    except BaseException:
-        temporary.unlink(missing_ok=True)
-        raise
-    return path
+    return write_bytes_atomically(path, data)
 
 
 def write_text(path: Path, text: str) -> Path:

@@ -119,3 +119,29 @@ def test_a_full_disk_leaves_no_temporary_file_behind(tmp_path, monkeypatch):
     with pytest.raises(OSError, match="No space"):
         write_atomically(tmp_path / "metadata.json", b"{}")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_figure_that_fails_halfway_leaves_the_previous_png(tmp_path):
+    from reconstruction.figures.canvas import new_figure, save_png
+
+    path = tmp_path / "errors.png"
+    figure = new_figure(2.0, 2.0)
+    figure.add_subplot().plot([0, 1], [0, 1])
+    save_png(figure, path)
+    before = path.read_bytes()
+    assert before.startswith(b"\x89PNG")
+
+    def disk_full_halfway(target, **_):  # writes part of a PNG, then the disk is full
+        if hasattr(target, "write"):
+            target.write(b"\x89PNG half")
+        else:
+            with open(target, "wb") as handle:
+                handle.write(b"\x89PNG half")
+        raise OSError(28, "No space left on device")
+
+    broken = new_figure(2.0, 2.0)
+    broken.savefig = disk_full_halfway
+    with pytest.raises(OSError, match="No space"):
+        save_png(broken, path)
+    assert path.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["errors.png"]

@@ -11,6 +11,8 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+from common.atomic_files import write_bytes_atomically
+
 
 @dataclass(frozen=True)
 class CompleteLines:
@@ -84,19 +86,10 @@ def fsync_directory(directory: Path) -> None:
 
 
 def write_atomically(path: Path, data: bytes) -> None:
-    """Replace ``path`` by ``data`` so that readers see either the old or the new content, whole."""
-    path = Path(path)
-    temporary = path.with_name(f".{path.name}.tmp")
-    try:
-        with open(temporary, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(temporary, path)
-    except BaseException:  # e.g. a full disk: leave the old file, not a stray temporary one
-        temporary.unlink(missing_ok=True)
-        raise
-    fsync_directory(path.parent)
+    """Replace ``path`` by ``data`` whole (:func:`common.atomic_files.write_bytes_atomically`), then
+    make the rename itself durable."""
+    write_bytes_atomically(path, data)
+    fsync_directory(Path(path).parent)
 
 
 class AppendOnlyFile:

@@ -6,9 +6,12 @@ leaves ``matplotlib.pyplot``'s state (and any backend other code selected) untou
 """
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
+
+from common.atomic_files import write_bytes_atomically
 
 #: Resolution of every PNG written, dots per inch.
 DPI = 120
@@ -41,11 +44,12 @@ def check_png_path(path) -> Path:
 
 
 def save_png(figure, path) -> Path:
-    """Write ``figure`` to ``path`` (creating missing parent folders) and return the path."""
+    """Write ``figure`` to ``path`` whole or not at all (creating missing parent folders); returns the path."""
     path = check_png_path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(path, format="png", dpi=DPI)
-    return path
+    png = io.BytesIO()
+    figure.savefig(png, format="png", dpi=DPI)
+    return write_bytes_atomically(path, png.getvalue())
 
 
 def rendered_rgba(figure) -> np.ndarray:
