@@ -68,6 +68,21 @@ def test_explore_refuses_an_out_that_is_a_file_or_under_one(tmp_path, capsys):
     assert status == 2 and "cannot be created" in err
 
 
+def test_explore_refuses_an_out_under_a_read_only_directory(tmp_path, capsys, monkeypatch):
+    import os
+
+    from scripts import _cli
+    from scripts.explore import main
+
+    read_only = tmp_path / "shared"
+    read_only.mkdir()
+    # root ignores permission bits, so the directory is made read-only for the check itself
+    monkeypatch.setattr(_cli.os, "access", lambda path, mode: os.path.realpath(path) != str(read_only.resolve()))
+    status, err = run_main(main, ["--out", str(read_only / "run")], capsys)
+    assert status == 2 and f"{read_only} is not writable; choose another directory" in last_line(err)
+    assert list(read_only.iterdir()) == []
+
+
 def test_explore_refuses_a_finished_run_without_resume_and_resume_without_a_run(recorded_run, tmp_path, capsys):
     from scripts.explore import main
 
