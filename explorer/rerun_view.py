@@ -394,17 +394,29 @@ def add_rerun_argument(parser) -> None:
                              f"(needs the viz extra: {INSTALL_HINT})")
 
 
+def check_rerun_argument(parser, value: str | None) -> None:
+    """Refuse a ``--rerun`` value that cannot work, before anything is opened or written.
+
+    A file that does not end in .rrd, or rerun-sdk missing: one line (naming ``pip install -e .[viz]``
+    for the latter) and exit status 2. No flag: nothing to check.
+    """
+    if value is None:
+        return
+    if value and Path(value).suffix != ".rrd":
+        parser.exit(2, f"{parser.prog}: error: --rerun {value}: the file must end in .rrd\n")
+    try:
+        require_rerun()
+    except RerunMissingError as error:
+        parser.exit(2, f"{parser.prog}: error: {error}\n")
+
+
 def observer_from_argument(parser, value: str | None, application: str, surface_every: int = 1):
     """The :class:`RerunObserver` a ``--rerun`` value asks for, None without the flag.
 
-    Without rerun-sdk: one line naming ``pip install -e .[viz]`` and exit status 2.
+    The value is checked first (:func:`check_rerun_argument`); the stream (file or viewer) is opened
+    only then.
     """
+    check_rerun_argument(parser, value)
     if value is None:
         return None
-    path = Path(value) if value else None
-    if path is not None and path.suffix != ".rrd":
-        parser.exit(2, f"{parser.prog}: error: --rerun {value}: the file must end in .rrd\n")
-    try:
-        return RerunObserver(open_stream(path, application), surface_every=surface_every)
-    except RerunMissingError as error:
-        parser.exit(2, f"{parser.prog}: error: {error}\n")
+    return RerunObserver(open_stream(Path(value) if value else None, application), surface_every=surface_every)

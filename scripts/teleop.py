@@ -21,7 +21,7 @@ from pathlib import Path
 
 def main(argv: list[str] | None = None) -> None:
     import objects
-    from explorer.rerun_view import add_rerun_argument, observer_from_argument
+    from explorer.rerun_view import add_rerun_argument, check_rerun_argument, observer_from_argument
     from scripts._cli import check_gui, check_object, check_out_dir, check_robot
 
     parser = argparse.ArgumentParser(prog="tactile-teleop", description=__doc__.splitlines()[0])
@@ -51,9 +51,10 @@ def main(argv: list[str] | None = None) -> None:
         except ValueError as err:
             parser.error(str(err))
 
-    observer = observer_from_argument(parser, args.rerun, "tactile-teleop")
+    check_rerun_argument(parser, args.rerun)
     if not args.headless:
         check_gui(parser, "the window", "pass --headless with --script")
+    observer = observer_from_argument(parser, args.rerun, "tactile-teleop")  # opened once all checks passed
 
     import torch
 

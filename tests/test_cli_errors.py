@@ -244,6 +244,11 @@ def test_teleop_with_a_window_but_no_display_fails_at_once(tmp_path, capsys, mon
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     status, err = run_main(main, ["--object", "sphere", "--out", str(tmp_path / "t")], capsys)
     assert status == 2 and "no display" in err and "--headless" in err
+    pytest.importorskip("rerun")
+    status, err = run_main(main, ["--object", "sphere", "--out", str(tmp_path / "t"),
+                                  "--rerun", str(tmp_path / "teleop.rrd")], capsys)
+    assert status == 2 and "no display" in err
+    assert list(tmp_path.iterdir()) == []  # no empty recording left behind
 
 
 # ---- tactile-sweep, tactile-gpis-bench, sensor-monitor ---------------------------------------
