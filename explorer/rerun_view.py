@@ -296,12 +296,15 @@ def _variance_colours(variance: np.ndarray) -> np.ndarray:
 def log_session(session_dir: Path, observer: RerunObserver, use_normals: bool | None = None) -> int:
     """Log a recorded session as the run would have: streams, touches, GPIS after each touch.
 
-    The GPIS is refitted from the recorded contacts (object frame) with the recorded prior and
-    normals setting; the truth is the registry object or mesh file the metadata names, when it
+    The GPIS is refitted as the loop updated it: the recorded contacts (object frame) and, for
+    misses, the free space their approach swept, with the recorded prior, normals and free-space
+    settings; the truth is the registry object or mesh file the metadata names, when it
     still loads. Returns the number of touches logged.
     """
     import objects
     import robots
+    from explorer.evidence import SurfaceEvidence
+    from explorer.loop import LoopConfig
     from explorer.positioner import FixedStand
     from explorer.session import read_session
     from explorer.touch import ObjectPrior
@@ -333,6 +336,9 @@ def log_session(session_dir: Path, observer: RerunObserver, use_normals: bool | 
         bounds = prior.bounds()
     normals = configuration.get("use_normals", True) if use_normals is None else use_normals
     gpis = GPIS(bounds=bounds, use_normals=normals)
+    loop = configuration.get("loop") or {}
+    evidence = SurfaceEvidence(gpis, float(loop.get("free_space_value", LoopConfig.free_space_value)),
+                               float(loop.get("free_space_noise", LoopConfig.free_space_noise)))
     observer.run_started(SimpleNamespace(kinematics=kinematics, positioner=positioner, reference=truth),
                          gpis, metadata)
 
@@ -361,7 +367,9 @@ def log_session(session_dir: Path, observer: RerunObserver, use_normals: bool | 
             stand_yaw_rad=float(f.get("stand_yaw_rad", 0.0)), stand_tilt_rad=float(f.get("stand_tilt_rad", 0.0)),
             strategy=str(f.get("strategy", "")))
         if record.kind == "contact" and record.position_m is not None:
-            gpis.add(record.position_m[None], record.normal[None] if normals else None)
+            evidence.add_contact(record.position_m[None], record.normal[None] if normals else None)
+        elif record.kind == "miss" and f.get("free_space_m") is not None:
+            evidence.add_free_space(np.asarray(f["free_space_m"], float).reshape(-1, 3))
         observer.touch(record, event.t_s)
         touches += 1
     if r0 < len(readings):

@@ -133,3 +133,34 @@ def test_the_session_replayed_into_rerun_matches_the_live_recording(rr, logged_r
     live, (column,) = read(rr, out / "run.rrd", "/sensor/compensated_pa")
     again, _ = read(rr, replayed, "/sensor/compensated_pa")
     np.testing.assert_allclose(np.concatenate(again[column].to_numpy()), np.concatenate(live[column].to_numpy()))
+    # The replay updates the GPIS as the loop did (contacts and misses' free space): the same surface.
+    live, _ = read(rr, out / "run.rrd", "/world/object/gpis")
+    again, _ = read(rr, replayed, "/world/object/gpis")
+    vertices = "/world/object/gpis:Mesh3D:vertex_positions"
+    np.testing.assert_allclose(np.asarray(again.iloc[-1][vertices].tolist(), float),
+                               np.asarray(live.iloc[-1][vertices].tolist(), float), atol=1e-7)
+
+
+def test_a_replayed_miss_adds_its_free_space_to_the_gpis(rr, logged_run, tmp_path):
+    import json
+    import shutil
+
+    from explorer.rerun_view import RerunObserver, log_session, open_stream
+
+    out, result = logged_run
+    session = tmp_path / "with_miss"
+    shutil.copytree(out / "run" / "session", session)
+    last_t = json.loads((session / "events.jsonl").read_text().splitlines()[-1])["t_s"]
+    miss = dict(t_s=last_t + 1.0, kind="miss", index=len(result.records), result="miss", strategy="uniform",
+                target_m=[0.06, 0.0, 0.0], approach_dir=[-1.0, 0.0, 0.0],
+                free_space_m=[[0.07, 0.0, 0.0], [0.065, 0.0, 0.0], [0.06, 0.0, 0.0]])
+    with open(session / "events.jsonl", "a", encoding="utf-8") as stream:
+        stream.write(json.dumps(miss) + "\n")
+    replayed = tmp_path / "miss.rrd"
+    assert log_session(session, RerunObserver(open_stream(replayed), surface_every=1)) == len(result.records) + 1
+    live, _ = read(rr, out / "run.rrd", "/world/object/gpis")
+    again, _ = read(rr, replayed, "/world/object/gpis")
+    vertices = "/world/object/gpis:Mesh3D:vertex_positions"
+    before = np.asarray(live.iloc[-1][vertices].tolist(), float)
+    after = np.asarray(again.iloc[-1][vertices].tolist(), float)
+    assert before.shape != after.shape or not np.allclose(before, after, atol=1e-6)  # the free space moved it
