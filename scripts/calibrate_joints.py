@@ -1,4 +1,5 @@
-"""Calibrate the arm's joint offsets by touching a known ball, in simulation, and show before/after.
+"""Calibrate the arm's joint offsets and link lengths by touching a known ball, in simulation, and
+show before/after.
 
 The lab procedure of :mod:`robots.joint_calibration` run on the simulated robot of a profile: a
 5 cm ball is placed at three known places in front of the arm; the fingertip touches it at
@@ -69,7 +70,8 @@ def run_touches(profile, robot: str, count: int, seed: int, progress=None):
     rows = []
     with SimWorld(table=None) as world:
         encoder = profile.encoder_model(spec.dof, seed)
-        arm = SimArm(world, spec, encoder=encoder, spring_friction_nm=profile.spring_friction_nm)
+        arm = SimArm(world, spec, encoder=encoder, spring_friction_nm=profile.spring_friction_nm,
+                     link_length_error_m=profile.link_length_errors_m(spec, seed))
         sensor = SimulatedTactileSensor(config=profile.sensor_config(), seed=seed)
         world.add_step_listener(lambda _t: sensor.on_step(arm.pad_state()))
         sensor.open()
@@ -113,8 +115,10 @@ def run_touches(profile, robot: str, count: int, seed: int, progress=None):
             if progress:
                 progress(f"touch {k + 1}/{len(centres)}: {len(rows)} usable")
         true_offsets = np.asarray(encoder.offset_rad) if encoder.offset_rad else np.zeros(spec.dof)
+    if not rows:
+        raise RuntimeError("no usable touch of the ball (none stopped by the detector with a settled orientation)")
     q, quats, pads, balls = (np.array(v) for v in zip(*rows))
-    return q, quats, pads, balls, true_offsets, kinematics
+    return q, quats, pads, balls, true_offsets, kinematics, dict(arm.link_length_error_m)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -124,6 +128,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--robot", default="armar3")
     parser.add_argument("--touches", type=int, default=36, help="touches in all (2/3 calibrate, 1/3 held out)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--no-link-lengths", action="store_true", help="fit the joint offsets only")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
     from explorer.sim_profile import get_profile
@@ -135,24 +140,37 @@ def main(argv: list[str] | None = None) -> int:
     if args.touches < 12:
         parser.error(f"--touches must be at least 12 (8 to calibrate 7 joints, 4 held out), got {args.touches}")
     from robots.joint_calibration import SphereTouches, fit_joint_offsets
+    from robots.link_lengths import link_length_shift_m
 
     started = time.perf_counter()
-    q, quats, pads, balls, truth, kinematics = run_touches(
+    q, quats, pads, balls, truth, kinematics, true_lengths = run_touches(
         profile, args.robot, args.touches, args.seed, progress=lambda line: print(line, file=sys.stderr, flush=True))
     n_fit = (2 * len(q)) // 3
-    fit = fit_joint_offsets(kinematics, SphereTouches(q[:n_fit], quats[:n_fit], balls[:n_fit], BALL_RADIUS_M))
+    if n_fit < kinematics.dof + 4:
+        print(f"calibrate_joints: only {len(q)} touches were usable; raise --touches", file=sys.stderr)
+        return 1
+    fit = fit_joint_offsets(kinematics, SphereTouches(q[:n_fit], quats[:n_fit], balls[:n_fit], BALL_RADIUS_M),
+                            link_lengths=not args.no_link_lengths)
 
-    def errors_mm(offset):
+    def errors_mm(offset, lengths):
         computed = kinematics.pad_position_from_orientation(q[n_fit:] - offset, quats[n_fit:])
+        if lengths:
+            computed = computed + link_length_shift_m(kinematics, q[n_fit:] - offset, lengths)
         return 1e3 * np.linalg.norm(computed - pads[n_fit:], axis=1)
 
-    before, after = errors_mm(np.zeros_like(fit.offset_rad)), errors_mm(fit.offset_rad)
+    before = errors_mm(np.zeros_like(fit.offset_rad), {})
+    after = errors_mm(fit.offset_rad, fit.link_length_error_m)
+    dof = kinematics.dof
     result = {
         "profile": profile.name, "robot": args.robot, "seed": args.seed, "touches_used": int(len(q)),
         "calibration_touches": int(n_fit), "held_out_touches": int(len(q) - n_fit),
         "true_offset_deg": np.degrees(truth).round(4).tolist(),
         "fitted_offset_deg": np.degrees(fit.offset_rad).round(4).tolist(),
-        "singular_values_m_per_rad": fit.singular_values.round(5).tolist(),
+        "offset_std_deg": np.degrees(fit.parameter_std[:dof]).round(4).tolist(),
+        "true_link_length_error_mm": {k: round(1e3 * v, 4) for k, v in true_lengths.items()},
+        "fitted_link_length_error_mm": {k: round(1e3 * v, 4) for k, v in fit.link_length_error_m.items()},
+        "link_length_std_mm": dict(zip(fit.link_length_error_m, (1e3 * fit.parameter_std[dof:]).round(4).tolist())),
+        "singular_values": fit.singular_values.round(5).tolist(),
         "ball_residual_rms_mm": {"before": float(1e3 * np.sqrt(np.mean(fit.residual_before_m**2))),
                                  "after": float(1e3 * np.sqrt(np.mean(fit.residual_after_m**2)))},
         "held_out_pad_error_mm": {"before_mean": float(before.mean()), "before_max": float(before.max()),
