@@ -118,15 +118,23 @@ def plan_jobs(out_dir: Path, rows, cols, touches: int, seed: int, calibrations: 
                 path = run_dir(directory, run)
                 cells[(row.object, column)] = path
                 if not is_complete(path):
-                    order.append((column != row.main_column, RunJob(f"{robot}-{column}-{run.name}",
-                                                                    run.settings(config), path)))
-    for _, job in sorted(order, key=lambda item: item[0]):  # main columns first
+                    order.append((_priority(row, column), RunJob(f"{robot}-{column}-{run.name}",
+                                                                 run.settings(config), path)))
+    for _, job in sorted(order, key=lambda item: item[0]):
         if job.out_dir.exists():
             import shutil
 
             shutil.rmtree(job.out_dir)  # an unfinished run starts over, as in a sweep
         jobs.append(job)
     return jobs, cells
+
+
+def _priority(row: ReferenceRow, column: str) -> int:
+    """Run order: each row's main column, then hardware-like uncalibrated (the calibration's
+    before), the default profile, the rest."""
+    if column == row.main_column:
+        return 0
+    return {"hardware-like": 1, "datasheet-noise": 2}.get(column, 3)
 
 
 def read_contacts(run_directory: Path) -> tuple[np.ndarray, np.ndarray]:
