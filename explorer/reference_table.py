@@ -99,7 +99,7 @@ def plan_jobs(out_dir: Path, rows, cols, touches: int, seed: int, calibrations: 
     ``calibrations`` maps a robot to its ``joint_calibration.json`` (for the calibrated column).
     Returns (jobs, cells) with cells[(row.object, column)] = run directory.
     """
-    cells, jobs, order = {}, [], []
+    cells, order = {}, []
     for column in cols:
         for robot in sorted({r.robot for r in rows}):
             members = [r for r in rows if r.robot == robot]
@@ -120,13 +120,17 @@ def plan_jobs(out_dir: Path, rows, cols, touches: int, seed: int, calibrations: 
                 if not is_complete(path):
                     order.append((_priority(row, column), RunJob(f"{robot}-{column}-{run.name}",
                                                                  run.settings(config), path)))
-    for _, job in sorted(order, key=lambda item: item[0]):
-        if job.out_dir.exists():
-            import shutil
-
-            shutil.rmtree(job.out_dir)  # an unfinished run starts over, as in a sweep
-        jobs.append(job)
+    jobs = [job for _, job in sorted(order, key=lambda item: item[0])]
     return jobs, cells
+
+
+def clear_unfinished(jobs) -> None:
+    """Delete what unfinished runs left: each starts over, as in a sweep."""
+    import shutil
+
+    for job in jobs:
+        if job.out_dir.exists():
+            shutil.rmtree(job.out_dir)
 
 
 def _priority(row: ReferenceRow, column: str) -> int:

@@ -42,6 +42,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--no-calibration", action="store_true", help="leave out the calibrated hardware-like column")
     parser.add_argument("--eval-every", type=int_at_least(0), default=0, help="touches between error evaluations")
     parser.add_argument("--mesh-resolution", type=int_at_least(8), default=96)
+    parser.add_argument("--table-only", action="store_true",
+                        help="run nothing: write the table from the runs already finished in --out")
     parser.add_argument("--quick", action="store_true",
                         help="the sphere row, 3 touches, default profile, no calibration, resolution 32 (a smoke test)")
     return parser
@@ -77,12 +79,16 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     calibrations = {}
     if not args.no_calibration and "hardware-like" in profiles:
-        calibrations = calibrate(sorted({r.robot for r in rows}), args)
-    from explorer.reference_table import collect, format_markdown, plan_jobs
+        calibrations = existing_calibrations(sorted({r.robot for r in rows}), args) if args.table_only \
+            else calibrate(sorted({r.robot for r in rows}), args)
+    from explorer.reference_table import clear_unfinished, collect, format_markdown, plan_jobs
     from explorer.sweep.execution import run_in_pool
 
     jobs, cells = plan_jobs(args.out, rows, cols, args.touches, args.seed, calibrations, args.eval_every,
                             args.mesh_resolution)
+    if args.table_only:
+        jobs = []
+    clear_unfinished(jobs)
     print(f"reference_table: {len(jobs)} runs to do ({len(cells) - len(jobs)} finished before)", file=sys.stderr)
     failures = []
 
@@ -105,6 +111,13 @@ def main(argv: list[str] | None = None) -> int:
             wall_s=time.perf_counter() - started), indent=2))
     print((args.out / "reference_table.md").read_text())
     return 1 if failures else 0
+
+
+def existing_calibrations(robots: list[str], args) -> dict[str, Path]:
+    """The calibration files already in --out (``--table-only`` runs nothing)."""
+    paths = {robot: args.out / "calibration" / f"{robot}-seed{args.seed}" / "joint_calibration.json"
+             for robot in robots}
+    return {robot: path for robot, path in paths.items() if path.exists()}
 
 
 def calibrate(robots: list[str], args) -> dict[str, Path]:

@@ -61,6 +61,8 @@ def test_quick_mode_writes_a_well_formed_table_with_and_without_normals(tmp_path
     # a second call finds the run finished and rebuilds the same table without running it again
     assert main(["--quick", "--out", str(out)]) == 0
     assert json.loads((out / "reference_table.json").read_text())["records"] == data["records"]
+    assert main(["--quick", "--table-only", "--out", str(out)]) == 0  # runs nothing, reads what is there
+    assert json.loads((out / "reference_table.json").read_text())["records"] == data["records"]
 
 
 def test_calibration_files_are_checked_by_name(tmp_path):
