@@ -185,8 +185,9 @@ def collect(cells: dict, rows, cols, resolution: int) -> list[dict]:
     for row in rows:
         for column in cols:
             path = cells.get((row.object, column))
+            main = row.main_column if row.main_column in cols else "hardware-like"  # calibration left out
             record = dict(row=row.label, object=row.object, kind=row.kind, robot=row.robot, column=column,
-                          main=column == row.main_column, reference_with_mm=row.reference_with_mm,
+                          main=column == main, reference_with_mm=row.reference_with_mm,
                           reference_without_mm=row.reference_without_mm, run=None if path is None else str(path))
             metrics = None if path is None else read_metrics(path)
             if metrics is None or not metrics.get("completed"):

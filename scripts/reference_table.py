@@ -89,7 +89,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.table_only:
         jobs = []
     clear_unfinished(jobs)
-    print(f"reference_table: {len(jobs)} runs to do ({len(cells) - len(jobs)} finished before)", file=sys.stderr)
+    if not args.table_only:
+        print(f"reference_table: {len(jobs)} runs to do ({len(cells) - len(jobs)} finished before)", file=sys.stderr)
     failures = []
 
     def done(outcome) -> None:
