@@ -325,7 +325,10 @@ class SessionReplay:
         return result
 
     def _detector_config(self, settings: ReplaySettings) -> PressureDetectorConfig:
-        recorded = _config(PressureDetectorConfig, self.configuration.get("detector"))
+        recorded_dict = dict(self.configuration.get("detector") or {})
+        if recorded_dict and "baseline_hold_pa" not in recorded_dict:
+            recorded_dict["baseline_hold_pa"] = None  # recorded before the setting existed: the whole rise tracked
+        recorded = _config(PressureDetectorConfig, recorded_dict)
         start = recorded.start_threshold_pa if settings.start_threshold_pa is None else settings.start_threshold_pa
         end = recorded.end_threshold_pa if settings.end_threshold_pa is None else settings.end_threshold_pa
         if settings.end_threshold_pa is None and end > start:  # only the start was lowered

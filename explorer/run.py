@@ -55,6 +55,7 @@ class RunSettings:
     touches: int = ExplorationConfig.touches
     seed: int = ExplorationConfig.seed
     profile: str = "datasheet-noise"
+    calibration: str | None = None
     use_normals: bool = ExplorationConfig.use_normals
     gui: bool = False
     eval_every: int = ExplorationConfig.eval_every
@@ -78,13 +79,31 @@ def explore(settings: RunSettings, out_dir: Path, progress=None, resume: bool = 
     With ``resume=True`` the run already in ``out_dir`` is continued to ``settings.touches``
     (see :func:`run_on_rig`); ``observer`` as there.
     """
+    calibration = None
+    if settings.calibration:
+        from explorer.arm_calibration import read_arm_calibration
+
+        calibration = read_arm_calibration(settings.calibration)
     with build_scene(settings.object, settings.robot, seed=settings.seed, gui=settings.gui,
                      profile=settings.profile) as scene:
         truth = scene.object_model.mesh
-        rig = Rig(scene.arm, scene.sensor, scene.kinematics, scene.stand, object_prior(truth), truth,
+        robot, kinematics = scene.arm, scene.kinematics
+        if calibration is not None:
+            from explorer.arm_calibration import calibrated_arm
+
+            arm = (calibration.robot, calibration.profile, calibration.seed)
+            if arm != (settings.robot, scene.profile.name, settings.seed):
+                raise ValueError(f"calibration {settings.calibration} is of robot {arm[0]!r}, profile {arm[1]!r}, "
+                                 f"seed {arm[2]}; this run is {settings.robot!r}, {scene.profile.name!r}, seed "
+                                 f"{settings.seed} (the seed draws the arm's errors): calibrate this arm")
+            robot, kinematics = calibrated_arm(scene.arm, scene.kinematics, calibration)
+        rig = Rig(robot, scene.sensor, kinematics, scene.stand, object_prior(truth), truth,
                   dict(robot=settings.robot, sensor="simulated BNO055 + BMP280 under polyurethane",
                        object=settings.object, backend="simulation", profile=scene.profile.name,
-                       profile_parameters=scene.profile.changed_parameters()), scene.pad)
+                       profile_parameters=scene.profile.changed_parameters(),
+                       calibration=None if calibration is None else dict(
+                           offset_rad=calibration.offset_rad.tolist(),
+                           link_length_error_m=calibration.link_length_error_m)), scene.pad)
         return run_on_rig(rig, settings, out_dir, progress, resume, observer, status=status)
 
 

@@ -98,7 +98,8 @@ def build_scene(object_name: str, robot_name: str = "armar3", seed: int = 0, gui
         stand = SimulatedStand(lambda p, q: world.set_object_pose(handle, p, q), centre,
                                turntable_poses(yaw_steps, tilt_steps))
         arm = SimArm(world, spec, encoder=profile.encoder_model(spec.dof, seed),
-                     spring_friction_nm=profile.spring_friction_nm)
+                     spring_friction_nm=profile.spring_friction_nm,
+                     link_length_error_m=profile.link_length_errors_m(spec, seed))
         sensor = SimulatedTactileSensor(config=sensor_config, seed=seed)
         world.add_step_listener(lambda _t: sensor.on_step(arm.pad_state()))
         sensor.open()

@@ -1,4 +1,4 @@
-"""Joint-offset calibration by touching a known sphere, and a robot that applies the result.
+"""Joint-offset (and link-length) calibration by touching a known sphere, and a robot that applies it.
 
 A lab calibrates its arm's encoder offsets the way the fingertip measures anything: it touches a
 sphere of known centre and radius (a calibration ball on the table, measured once) at poses spread
@@ -12,10 +12,15 @@ The offsets ``o`` (encoder reading minus true angle) solve the nonlinear least s
 (scipy's trust-region reflective solver). One residual per touch: use at least three touches per
 offset and poses that turn every joint, or some combinations stay unobservable (the ridge then
 keeps them at zero; ``FitResult.singular_values`` shows it).
+
+With ``link_lengths`` the arm's link lengths are fitted too: the pad point becomes
+``p_i(o, d) = FK_pivot(q_i - o) + R_i a + sum_j R_parent_j(q_i - o) u_j d_j``
+(:mod:`robots.link_lengths`, exact), ``d`` with its own ridge. ``FitResult.parameter_std`` says how
+well the touches determine each parameter (residual scatter through the Jacobian).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -66,26 +71,67 @@ class FitResult:
         Estimated encoder offsets (reading minus true angle), radians.
     residual_before_m, residual_after_m : (n,) float
         Signed distance of each computed pad point from the sphere, without and with the offsets.
-    singular_values : (dof,) float
-        Of the residuals' Jacobian at the solution (metres per radian): a near-zero one marks an
-        offset combination these touches cannot see.
+    singular_values : (dof [+ k],) float
+        Of the residuals' Jacobian at the solution (metres per radian, metres per metre for link
+        lengths): a near-zero one marks a combination these touches cannot see.
+    link_length_error_m : dict of str -> float
+        Fitted link-length errors (true minus nominal, metres) by joint name; empty when not fitted.
+    parameter_std : (dof [+ k],) float
+        Standard error of each fitted parameter (radians, then metres): the after-fit residual RMS
+        through ``(J^T J + ridge)^-1``. A value as large as the parameters' spread means the
+        touches do not determine it.
     """
 
     offset_rad: np.ndarray
     residual_before_m: np.ndarray
     residual_after_m: np.ndarray
     singular_values: np.ndarray
+    link_length_error_m: dict = field(default_factory=dict)
+    parameter_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
-def sphere_residuals_m(kinematics, touches: SphereTouches, offset_rad) -> np.ndarray:
-    """Signed distance (n,) of each touch's computed pad point from the sphere, metres."""
+def sphere_residuals_m(kinematics, touches: SphereTouches, offset_rad, link_length_error_m=None) -> np.ndarray:
+    """Signed distance (n,) of each touch's computed pad point from the sphere, metres.
+
+    ``link_length_error_m`` (joint name -> metres, optional): the model's links are that much longer.
+    """
     q = touches.q_rad - np.asarray(offset_rad, float)
     points = kinematics.pad_position_from_orientation(q, touches.body_quat_wxyz)
+    if link_length_error_m:
+        from robots.link_lengths import link_length_shift_m
+
+        points = points + link_length_shift_m(kinematics, q, link_length_error_m)
     return np.linalg.norm(points - touches.centre_m, axis=1) - touches.radius_m
 
 
-def fit_joint_offsets(kinematics, touches: SphereTouches, ridge_m_per_rad: float = 0.02) -> FitResult:
-    """Least-squares joint offsets from sphere touches (module docstring).
+class _FastResiduals:
+    """:func:`sphere_residuals_m` with one batched forward-kinematics call per evaluation (the fit
+    evaluates it hundreds of times)."""
+
+    def __init__(self, kinematics, touches: SphereTouches, links) -> None:
+        from common.rotations import quat_to_matrix
+
+        self.kinematics, self.touches, self.links = kinematics, touches, links
+        self.pad_offset_m = quat_to_matrix(touches.body_quat_wxyz) @ kinematics.pivot_to_pad_in_body
+        self.pivot = kinematics.link_index(kinematics.spec.pivot_link)
+        self.parents = [kinematics.link_index(link.parent_link) for link in links]
+        self.directions = np.array([link.direction for link in links]).reshape(-1, 3)
+
+    def __call__(self, offset_rad, lengths_m) -> np.ndarray:
+        import torch
+
+        q = torch.as_tensor(self.touches.q_rad - offset_rad, dtype=torch.float64)
+        with torch.no_grad():
+            transforms = self.kinematics.link_transforms(q).numpy()
+        points = transforms[self.pivot, :, :3, 3] + self.pad_offset_m
+        for parent, direction, length in zip(self.parents, self.directions, lengths_m):
+            points = points + length * (transforms[parent, :, :3, :3] @ direction)
+        return np.linalg.norm(points - self.touches.centre_m, axis=1) - self.touches.radius_m
+
+
+def fit_joint_offsets(kinematics, touches: SphereTouches, ridge_m_per_rad: float = 0.02,
+                      link_lengths: bool = False, ridge_m_per_m: float = 0.05) -> FitResult:
+    """Least-squares joint offsets (and link lengths) from sphere touches (module docstring).
 
     Parameters
     ----------
@@ -94,22 +140,49 @@ def fit_joint_offsets(kinematics, touches: SphereTouches, ridge_m_per_rad: float
     touches : SphereTouches
     ridge_m_per_rad : float
         Weight of the ridge term pulling each offset towards zero (metres of residual per radian).
+    link_lengths : bool
+        Also fit the arm's link lengths (:func:`robots.link_lengths.arm_link_lengths`).
+    ridge_m_per_m : float
+        Weight of the ridge term on the link-length errors (metres of residual per metre).
     """
     from scipy.optimize import least_squares
 
     dof = touches.q_rad.shape[1]
-    if len(touches.q_rad) < dof:
-        raise ValueError(f"{len(touches.q_rad)} touches cannot determine {dof} joint offsets; touch at least "
-                         f"{dof} (better 3 x {dof}) poses")
+    links = _arm_links(kinematics) if link_lengths else ()
+    names = [link.joint for link in links]
+    unknowns = dof + len(names)
+    if len(touches.q_rad) < unknowns:
+        links = f" and {len(names)} link lengths" if names else ""
+        raise ValueError(f"{len(touches.q_rad)} touches cannot determine {dof} joint offsets{links}; touch at "
+                         f"least {unknowns} (better 3 x {unknowns}) poses")
 
-    def residuals(offset):
-        return np.concatenate([sphere_residuals_m(kinematics, touches, offset), ridge_m_per_rad * offset])
+    def split(x):
+        return x[:dof], dict(zip(names, x[dof:]))
 
-    solution = least_squares(residuals, np.zeros(dof), method="trf", x_scale=0.01, diff_step=1e-6)
-    singular = np.linalg.svd(solution.jac[: len(touches.q_rad)], compute_uv=False)
-    return FitResult(offset_rad=solution.x, residual_before_m=sphere_residuals_m(kinematics, touches, np.zeros(dof)),
-                     residual_after_m=sphere_residuals_m(kinematics, touches, solution.x),
-                     singular_values=singular)
+    fast = _FastResiduals(kinematics, touches, links)
+
+    def residuals(x):
+        return np.concatenate([fast(x[:dof], x[dof:]), ridge_m_per_rad * x[:dof], ridge_m_per_m * x[dof:]])
+
+    scale = np.concatenate([np.full(dof, 0.01), np.full(len(names), 0.001)])
+    solution = least_squares(residuals, np.zeros(unknowns), method="trf", x_scale=scale, diff_step=1e-6)
+    n = len(touches.q_rad)
+    jac = solution.jac[:n]
+    singular = np.linalg.svd(jac, compute_uv=False)
+    offset, lengths = split(solution.x)
+    after = sphere_residuals_m(kinematics, touches, offset, lengths)
+    ridge = np.concatenate([np.full(dof, ridge_m_per_rad**2), np.full(len(names), ridge_m_per_m**2)])
+    sigma = float(np.sqrt(np.sum(after**2) / max(n - unknowns, 1)))
+    std = sigma * np.sqrt(np.diag(np.linalg.inv(jac.T @ jac + np.diag(ridge))))
+    return FitResult(offset_rad=offset, residual_before_m=sphere_residuals_m(kinematics, touches, np.zeros(dof)),
+                     residual_after_m=after, singular_values=singular,
+                     link_length_error_m={k: float(v) for k, v in lengths.items()}, parameter_std=std)
+
+
+def _arm_links(kinematics):
+    from robots.link_lengths import arm_link_lengths
+
+    return arm_link_lengths(kinematics.spec)
 
 
 class CalibratedRobot(Robot):

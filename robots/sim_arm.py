@@ -17,6 +17,7 @@ nominal kinematics put it; backlash and noise only enter the reported angles.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -108,6 +109,9 @@ class SimArm(Robot):
     encoder : EncoderModel
     spring_friction_nm : float
         Coulomb (and stiction) friction torque of each spring joint, N m (0: frictionless).
+    link_length_error_m : mapping joint name -> metres, optional
+        The true arm's links are this much longer than ``spec``'s URDF says
+        (:mod:`robots.link_lengths`); the nominal model (``spec``) is what the caller computes with.
     control_steps : int
         Physics steps per control tick.
     position_gain, velocity_gain : float
@@ -123,6 +127,7 @@ class SimArm(Robot):
         spring_damping_nms_per_rad: float | None = None,
         encoder: EncoderModel = EncoderModel(),
         spring_friction_nm: float = 0.0,
+        link_length_error_m=None,
         control_steps: int = 4,
         position_gain: float = 0.3,
         velocity_gain: float = 1.0,
@@ -132,9 +137,10 @@ class SimArm(Robot):
             raise ValueError(f"control_steps must be >= 1, got {control_steps}")
         self.world = world
         self.spec = spec
+        self.link_length_error_m = dict(link_length_error_m or {})
         self._pb = import_pybullet()
         self._client = world.client
-        self.body = world.load_urdf(spec.urdf_path, spec.base_position_m, spec.base_quat_wxyz, fixed_base=True)
+        self.body = self._load_true_arm(world, spec)
         pb, client = self._pb, self._client
         infos = [JointInfo.from_pybullet(pb.getJointInfo(self.body, i, physicsClientId=client))
                  for i in range(pb.getNumJoints(self.body, physicsClientId=client))]
@@ -279,6 +285,18 @@ class SimArm(Robot):
                                physicsClientId=self._client)
 
     # ---- Robot interface ---------------------------------------------------------------------
+
+    def _load_true_arm(self, world: SimWorld, spec: RobotSpec) -> int:
+        """Load the arm's URDF, with the link-length errors written into a temporary copy."""
+        if not any(self.link_length_error_m.values()):
+            return world.load_urdf(spec.urdf_path, spec.base_position_m, spec.base_quat_wxyz, fixed_base=True)
+        import tempfile
+
+        from robots.link_lengths import with_link_length_errors
+
+        with tempfile.TemporaryDirectory(prefix="true_arm_") as directory:
+            true_spec = with_link_length_errors(spec, self.link_length_error_m, Path(directory))
+            return world.load_urdf(true_spec.urdf_path, spec.base_position_m, spec.base_quat_wxyz, fixed_base=True)
 
     @property
     def dof(self) -> int:

@@ -1,4 +1,5 @@
-"""Calibrate the arm's joint offsets by touching a known ball, in simulation, and show before/after.
+"""Calibrate the arm's joint offsets and link lengths by touching a known ball, in simulation, and
+show before/after.
 
 The lab procedure of :mod:`robots.joint_calibration` run on the simulated robot of a profile: a
 5 cm ball is placed at three known places in front of the arm; the fingertip touches it at
@@ -69,7 +70,8 @@ def run_touches(profile, robot: str, count: int, seed: int, progress=None):
     rows = []
     with SimWorld(table=None) as world:
         encoder = profile.encoder_model(spec.dof, seed)
-        arm = SimArm(world, spec, encoder=encoder, spring_friction_nm=profile.spring_friction_nm)
+        arm = SimArm(world, spec, encoder=encoder, spring_friction_nm=profile.spring_friction_nm,
+                     link_length_error_m=profile.link_length_errors_m(spec, seed))
         sensor = SimulatedTactileSensor(config=profile.sensor_config(), seed=seed)
         world.add_step_listener(lambda _t: sensor.on_step(arm.pad_state()))
         sensor.open()
@@ -113,8 +115,52 @@ def run_touches(profile, robot: str, count: int, seed: int, progress=None):
             if progress:
                 progress(f"touch {k + 1}/{len(centres)}: {len(rows)} usable")
         true_offsets = np.asarray(encoder.offset_rad) if encoder.offset_rad else np.zeros(spec.dof)
+    if not rows:
+        raise RuntimeError("no usable touch of the ball (none stopped by the detector with a settled orientation)")
     q, quats, pads, balls = (np.array(v) for v in zip(*rows))
-    return q, quats, pads, balls, true_offsets, kinematics
+    return q, quats, pads, balls, true_offsets, kinematics, dict(arm.link_length_error_m)
+
+
+def kinematic_touches(profile, robot: str, count: int, seed: int):
+    """The touches of :func:`run_touches` from kinematics alone (seconds, not a simulation): the
+    arm with the profile's link-length errors (a rewritten URDF) puts its pad flat on the ball at
+    the same planned poses; the encoders read the true angles plus the offsets, half the backlash
+    in a random direction and the resolution; the IMU's orientation carries a heading offset
+    (``imu_heading_offset_std_deg``, one per run, about the vertical) and a tilt error
+    (``imu_tilt_bias_std_deg``, per touch); the mounting is taken as calibrated. Same returns."""
+    import tempfile
+
+    import robots
+    from common.rotations import matrix_to_quat
+    from robots.ik import solve_pad_ik
+    from robots.kinematics import ArmKinematics
+    from robots.link_lengths import with_link_length_errors
+    from scipy.spatial.transform import Rotation
+
+    spec = profile.robot_spec(robots.load(robot))
+    kinematics = ArmKinematics(spec)
+    lengths = profile.link_length_errors_m(spec, seed)
+    with tempfile.TemporaryDirectory() as directory:
+        true_kinematics = ArmKinematics(with_link_length_errors(spec, lengths, Path(directory)))
+    rng = np.random.default_rng(seed)
+    centres, normals = touch_poses(kinematics, count, rng)
+    ik = solve_pad_ik(true_kinematics, centres + BALL_RADIUS_M * normals, -normals, q_seed=spec.home_q)
+    q_true = ik.q_rad[ik.success]
+    pad = true_kinematics.forward_kinematics(q_true)
+    body = true_kinematics.forward_kinematics(q_true, spec.sensor_body_link)
+    offsets = profile.joint_offsets_rad(spec.dof, seed)
+    backlash = 0.5 * np.radians(profile.encoder_backlash_deg) * rng.choice([-1.0, 1.0], q_true.shape)
+    q_read = q_true + offsets + backlash
+    if profile.encoder_resolution_rad:
+        q_read = np.round(q_read / profile.encoder_resolution_rad) * profile.encoder_resolution_rad
+    heading = Rotation.from_rotvec([0.0, 0.0, np.radians(profile.imu_heading_offset_std_deg) * rng.standard_normal()])
+    axes = rng.standard_normal((len(q_true), 3))
+    axes[:, 2] = 0.0
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    tilt = Rotation.from_rotvec(axes * np.radians(profile.imu_tilt_bias_std_deg) * rng.standard_normal((len(q_true), 1)))
+    measured = (heading * tilt * Rotation.from_matrix(body.rotation)).as_matrix()
+    balls = pad.position_m + BALL_RADIUS_M * pad.z_axis  # the pad lies flat on the ball
+    return q_read, matrix_to_quat(measured), pad.position_m, balls, offsets, kinematics, lengths
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -124,6 +170,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--robot", default="armar3")
     parser.add_argument("--touches", type=int, default=36, help="touches in all (2/3 calibrate, 1/3 held out)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--link-lengths", action="store_true",
+                        help="fit the arm's link lengths too (off by default: from one ball at three places "
+                             "their standard errors, 0.5-1 mm on ARMAR-III, exceed the errors; BENCHMARKS.md)")
+    parser.add_argument("--kinematic", action="store_true",
+                        help="touches from kinematics and the profile's sensor errors, no physics (seconds)")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
     from explorer.sim_profile import get_profile
@@ -135,24 +186,43 @@ def main(argv: list[str] | None = None) -> int:
     if args.touches < 12:
         parser.error(f"--touches must be at least 12 (8 to calibrate 7 joints, 4 held out), got {args.touches}")
     from robots.joint_calibration import SphereTouches, fit_joint_offsets
+    from robots.link_lengths import link_length_shift_m
 
     started = time.perf_counter()
-    q, quats, pads, balls, truth, kinematics = run_touches(
-        profile, args.robot, args.touches, args.seed, progress=lambda line: print(line, file=sys.stderr, flush=True))
+    if args.kinematic:
+        q, quats, pads, balls, truth, kinematics, true_lengths = kinematic_touches(profile, args.robot, args.touches,
+                                                                                   args.seed)
+    else:
+        q, quats, pads, balls, truth, kinematics, true_lengths = run_touches(
+            profile, args.robot, args.touches, args.seed,
+            progress=lambda line: print(line, file=sys.stderr, flush=True))
     n_fit = (2 * len(q)) // 3
-    fit = fit_joint_offsets(kinematics, SphereTouches(q[:n_fit], quats[:n_fit], balls[:n_fit], BALL_RADIUS_M))
+    if n_fit < kinematics.dof + 4:
+        print(f"calibrate_joints: only {len(q)} touches were usable; raise --touches", file=sys.stderr)
+        return 1
+    fit = fit_joint_offsets(kinematics, SphereTouches(q[:n_fit], quats[:n_fit], balls[:n_fit], BALL_RADIUS_M),
+                            link_lengths=args.link_lengths)
 
-    def errors_mm(offset):
+    def errors_mm(offset, lengths):
         computed = kinematics.pad_position_from_orientation(q[n_fit:] - offset, quats[n_fit:])
+        if lengths:
+            computed = computed + link_length_shift_m(kinematics, q[n_fit:] - offset, lengths)
         return 1e3 * np.linalg.norm(computed - pads[n_fit:], axis=1)
 
-    before, after = errors_mm(np.zeros_like(fit.offset_rad)), errors_mm(fit.offset_rad)
+    before = errors_mm(np.zeros_like(fit.offset_rad), {})
+    after = errors_mm(fit.offset_rad, fit.link_length_error_m)
+    dof = kinematics.dof
     result = {
         "profile": profile.name, "robot": args.robot, "seed": args.seed, "touches_used": int(len(q)),
+        "touches_from": "kinematics" if args.kinematic else "simulation",
         "calibration_touches": int(n_fit), "held_out_touches": int(len(q) - n_fit),
         "true_offset_deg": np.degrees(truth).round(4).tolist(),
         "fitted_offset_deg": np.degrees(fit.offset_rad).round(4).tolist(),
-        "singular_values_m_per_rad": fit.singular_values.round(5).tolist(),
+        "offset_std_deg": np.degrees(fit.parameter_std[:dof]).round(4).tolist(),
+        "true_link_length_error_mm": {k: round(1e3 * v, 4) for k, v in true_lengths.items()},
+        "fitted_link_length_error_mm": {k: round(1e3 * v, 4) for k, v in fit.link_length_error_m.items()},
+        "link_length_std_mm": dict(zip(fit.link_length_error_m, (1e3 * fit.parameter_std[dof:]).round(4).tolist())),
+        "singular_values": fit.singular_values.round(5).tolist(),
         "ball_residual_rms_mm": {"before": float(1e3 * np.sqrt(np.mean(fit.residual_before_m**2))),
                                  "after": float(1e3 * np.sqrt(np.mean(fit.residual_after_m**2)))},
         "held_out_pad_error_mm": {"before_mean": float(before.mean()), "before_max": float(before.max()),

@@ -92,6 +92,16 @@ class PressureDetectorConfig:
         How long it must stay below the end threshold before the end is confirmed, seconds.
     baseline_time_constant_s : float
         Time constant of the exponential moving average that tracks drift while free, seconds.
+    baseline_hold_pa : float or None
+        While the rise is above this (a press beginning, below the start threshold), the baseline
+        follows it only with ``held_baseline_time_constant_s``: a pad meeting a tilted surface
+        through a soft pad loads up over a second or more, and a 2 s average would absorb a good part
+        of that rise into the baseline and confirm the contact late or never. Drift (ambient pressure,
+        the bubble's temperature: below 1 Pa/s) stays within the band. None: the whole rise is
+        tracked (the detector before this setting existed; replays of older sessions use it).
+    held_baseline_time_constant_s : float
+        Time constant of the baseline while the rise is above ``baseline_hold_pa``, seconds: slow,
+        so that a rise that stays (an upward drift step) is still followed eventually.
     """
 
     start_threshold_pa: float = 100.0
@@ -99,6 +109,8 @@ class PressureDetectorConfig:
     min_start_duration_s: float = 0.02
     min_end_duration_s: float = 0.01
     baseline_time_constant_s: float = 2.0
+    baseline_hold_pa: float | None = 20.0
+    held_baseline_time_constant_s: float = 30.0
 
     def __post_init__(self) -> None:
         if not self.start_threshold_pa > 0.0:
@@ -112,14 +124,21 @@ class PressureDetectorConfig:
             raise ValueError("min_start_duration_s and min_end_duration_s must be >= 0 s")
         if not self.baseline_time_constant_s > 0.0:
             raise ValueError(f"baseline_time_constant_s must be > 0 s, got {self.baseline_time_constant_s}")
+        if self.baseline_hold_pa is not None and not 0.0 < self.baseline_hold_pa <= self.start_threshold_pa:
+            raise ValueError(f"baseline_hold_pa must be None or in (0, start_threshold_pa="
+                             f"{self.start_threshold_pa}] Pa, got {self.baseline_hold_pa}")
+        if not self.held_baseline_time_constant_s >= self.baseline_time_constant_s:
+            raise ValueError(f"held_baseline_time_constant_s must be >= baseline_time_constant_s "
+                             f"({self.baseline_time_constant_s} s), got {self.held_baseline_time_constant_s}")
 
 
 class PressureContactDetector(ContactDetector):
     """Contact from the pressure rise over a drift-compensating baseline, with hysteresis.
 
     While free, the baseline follows the pressure with an exponential moving average (time-weighted,
-    so sample-and-hold repeats do not bias it). It freezes as soon as the rise crosses the start
-    threshold and stays frozen during the contact, so a press cannot drag it up. A start is confirmed
+    so sample-and-hold repeats do not bias it); once the rise passes ``baseline_hold_pa`` it follows
+    only slowly, so a slowly loading press is not absorbed into it. It freezes as soon as the rise
+    crosses the start threshold and stays frozen during the contact, so a press cannot drag it up. A start is confirmed
     once the rise has stayed above ``start_threshold_pa`` for ``min_start_duration_s``; an end once it
     has stayed below ``end_threshold_pa`` for ``min_end_duration_s``. The first reading initialises
     the baseline, so start the detector while the pad is free.
@@ -165,8 +184,9 @@ class PressureContactDetector(ContactDetector):
             return self._confirm(reading, rise, rise < cfg.end_threshold_pa, cfg.min_end_duration_s, "end")
         event = self._confirm(reading, rise, rise > cfg.start_threshold_pa, cfg.min_start_duration_s, "start")
         if event is None and self._pending_since_s is None:
-            weight = -math.expm1(-dt / cfg.baseline_time_constant_s)
-            self._baseline_pa += weight * rise
+            held = cfg.baseline_hold_pa is not None and rise > cfg.baseline_hold_pa
+            tau = cfg.held_baseline_time_constant_s if held else cfg.baseline_time_constant_s
+            self._baseline_pa += -math.expm1(-dt / tau) * rise
         return event
 
     def _confirm(self, reading: Reading, rise: float, beyond: bool, min_duration_s: float,

@@ -148,3 +148,62 @@ def test_detectors_forget_everything_on_reset():
     assert detector.in_contact
     detector.reset()
     assert not detector.in_contact and detector.baseline_pa is None
+
+
+# --- slow presses, creep and the bubble's temperature (hardware-like pads) ----------------------
+
+@pytest.mark.parametrize("rate_pa_s", [10.0, 30.0, 100.0, 1000.0])
+def test_a_slowly_loading_press_is_confirmed_before_its_rise_reaches_twice_the_threshold(rate_pa_s):
+    """A soft pad meeting a tilted surface loads up at tens of Pa/s; the baseline must not absorb it.
+    (At 10 Pa/s the slow held tracking still takes ~45 Pa of the rise over the 15 s it lasts.)"""
+    config = PressureDetectorConfig()
+    rng = np.random.default_rng(int(rate_pa_s))
+    times = np.arange(0.0, 5.0 + 300.0 / rate_pa_s, PERIOD)
+    rise = np.clip(rate_pa_s * (times - 5.0), 0.0, None)
+    events = PressureContactDetector(config).process(
+        pressure_stream(times, AMBIENT + rise + 2.1 * rng.standard_normal(len(times))))
+    assert [e.kind for e in events] == ["start"]
+    true_rise_at_start = rate_pa_s * (events[0].t_s - 5.0)
+    assert config.start_threshold_pa < true_rise_at_start
+    assert true_rise_at_start < 2 * config.start_threshold_pa + rate_pa_s * (2 * PERIOD + config.min_start_duration_s)
+
+
+def test_without_the_hold_band_a_slow_press_is_absorbed_into_the_baseline():
+    """The failure the hold band removes: a 2 s average follows a 10 Pa/s rise 20 Pa behind, forever."""
+    times = np.arange(0.0, 30.0, PERIOD)
+    pressures = AMBIENT + np.clip(10.0 * (times - 5.0), 0.0, None)
+    old = PressureDetectorConfig(baseline_hold_pa=None)
+    assert PressureContactDetector(old).process(pressure_stream(times, pressures)) == []
+    assert [e.kind for e in PressureContactDetector().process(pressure_stream(times, pressures))] == ["start"]
+
+
+@pytest.mark.parametrize("temperature_difference_k", [-5.0, 5.0])
+def test_creep_and_contact_temperature_give_one_contact_per_press_and_nothing_after(temperature_difference_k):
+    """Three 10 s presses of a pad that creeps 10 % and whose sealed bubble takes the object's
+    temperature (110 Pa/K, 140 s), each followed by 60 s free: three starts, three ends."""
+    from sensor.sim.pad_drift import PadDrift, PadDriftState
+    from sensor.sim.pad_response import PadResponse
+
+    pad = PadResponse()
+    drift = PadDriftState(PadDrift(creep_fraction=0.1, thermal_pa_per_k=110.0,
+                                   contact_temperature_difference_k=temperature_difference_k))
+    rng = np.random.default_rng(3)
+    times = np.arange(0.0, 3 * 71.0, PERIOD)
+    phase = np.mod(times - 1.0, 71.0)
+    force = np.where(times < 1.0, 0.0, np.clip(np.minimum(phase, 11.0 - phase), 0.0, 1.0) * 1.5)  # 1 s ramps
+    pressures = []
+    for f in force:
+        rise = pad.pressure_rise_pa(f)
+        pressures.append(AMBIENT + rise + drift.step(rise, f > 0.0, PERIOD) + 2.1 * rng.standard_normal())
+    assert abs(drift.temperature_change_k) > 0.1  # the bubble's temperature moved
+    events = PressureContactDetector().process(pressure_stream(times, pressures))
+    assert [e.kind for e in events] == ["start", "end"] * 3
+    starts = [e.t_s for e in events if e.kind == "start"]
+    assert all(0.0 < s - (1.0 + 71.0 * k) < 0.5 for k, s in enumerate(starts))
+
+
+def test_hold_band_settings_are_checked():
+    with pytest.raises(ValueError, match="baseline_hold_pa"):
+        PressureDetectorConfig(baseline_hold_pa=150.0)
+    with pytest.raises(ValueError, match="held_baseline_time_constant_s"):
+        PressureDetectorConfig(held_baseline_time_constant_s=1.0)

@@ -280,3 +280,34 @@ def test_reduced_run_writes_the_figures(reduced_run):
     assert sorted(data["figures"]) == sorted(str(out / name) for name in names)
     for name in names:
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def hardware_like_presses():
+    """Three detection presses (flat 36 deg, sphere 43 deg, cylinder 33 deg: slow force rises on the
+    soft pad) and one free-motion trial under the hardware-like profile (creep, contact temperature)."""
+    from explorer.sensor_evaluation import run_evaluation
+
+    return run_evaluation(EvaluationConfig(profile="hardware-like", presses=3, free_motion_trials=1,
+                                           normal_presses_per_tilt=0, robots_benchmark_s=0.0, seed=0))
+
+
+def test_hardware_like_presses_are_confirmed_soon_after_the_force_allows_and_free_motion_never(
+        hardware_like_presses):
+    """Bounds from each run's own force trace: the start comes after the contact begins and within
+    1 s of the true force first reaching what the start threshold stands for (the pad's own curve);
+    the rise before that is the physics of a soft pad aligning at 0.5 mm/s, not the detector's."""
+    from sensor.contact_detection import PressureDetectorConfig
+    from sensor.sim.pad_response import PadResponse
+
+    report = hardware_like_presses
+    threshold_force_n = float(PadResponse().force_n(PressureDetectorConfig().start_threshold_pa))
+    presses = [r for r in report.example_recordings if r.kind == "press"]
+    assert len(presses) == 3 and report.press_summary.guard_stops == 3
+    for recording in presses:
+        begin = contact_intervals(recording.force_t_s, recording.normal_force_n, 0.05, 0.1)[0, 0]
+        reached = recording.force_t_s[np.flatnonzero(recording.normal_force_n > threshold_force_n)[0]]
+        starts = [e.t_s for e in PressureContactDetector().process(recording.streams["default"]) if e.kind == "start"]
+        assert starts and begin - 0.05 <= starts[0] <= reached + 1.0
+    pressure = report.detection["pressure"]
+    assert pressure.false_contacts_free_motion == 0

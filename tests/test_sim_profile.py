@@ -36,6 +36,12 @@ def test_unknown_names_and_bad_values_are_refused_naming_the_field(tmp_path):
         get_profile("hardware_like")
     with pytest.raises(ValueError, match="joint_offset_std_deg must be >= 0"):
         replace(PROFILES["hardware-like"], joint_offset_std_deg=-1.0)
+    with pytest.raises(ValueError, match="link_length_std_mm must be >= 0"):
+        replace(PROFILES["hardware-like"], link_length_std_mm=-0.5)
+    bad_links = tmp_path / "links.toml"
+    bad_links.write_text("link_lenght_std_mm = 1.0\n")
+    with pytest.raises(ValueError, match="links.toml: link_lenght_std_mm: unknown profile parameter.*link_length_std_mm"):
+        load_profile_file(bad_links)
     with pytest.raises(ValueError, match="imu_latency_s must be finite"):
         replace(PROFILES["ideal"], imu_latency_s=math.inf)
     with pytest.raises(ValueError, match="joint_ofset_std_deg: unknown profile parameter.*joint_offset_std_deg"):

@@ -103,6 +103,9 @@ class NormalAccuracy:
     body_rmse_deg : (t,) float
         RMS of the true pad misalignment per tilt (what the spring and contact achieved), degrees.
     trials : tuple of NormalTrial
+    rmse_ci95_deg : dict of str -> (t, 2) float
+        95 % bootstrap interval (percentile, resampling the presses of each tilt) of each RMSE,
+        degrees: whether two tilts' RMSEs differ by more than the presses' scatter.
     """
 
     tilts_deg: np.ndarray
@@ -110,6 +113,7 @@ class NormalAccuracy:
     unsettled: dict[str, np.ndarray]
     body_rmse_deg: np.ndarray
     trials: tuple[NormalTrial, ...] = field(repr=False)
+    rmse_ci95_deg: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
 
     def mean_deg(self, stream: str) -> float:
         """Mean over tilts of the per-tilt RMSE, degrees."""
@@ -123,16 +127,33 @@ def summarize(trials: Sequence[NormalTrial]) -> NormalAccuracy:
         raise ValueError("no normal trials to summarize")
     streams = list(trials[0].errors_deg)
     tilts = np.unique([t.tilt_deg for t in trials])
-    rmse, unsettled = {}, {}
+    rmse, unsettled, intervals = {}, {}, {}
     for stream in streams:
-        values, missing = [], []
+        values, missing, cis = [], [], []
         for tilt in tilts:
             errors = np.array([t.errors_deg[stream] for t in trials if t.tilt_deg == tilt])
             settled = errors[np.isfinite(errors)]
             values.append(math.sqrt(float(np.mean(settled**2))) if len(settled) else math.nan)
             missing.append(len(errors) - len(settled))
+            cis.append(bootstrap_rmse_ci(settled))
         rmse[stream] = np.array(values)
         unsettled[stream] = np.array(missing, dtype=int)
+        intervals[stream] = np.array(cis).reshape(-1, 2)
     body = np.array([math.sqrt(float(np.mean([t.body_misalignment_deg**2 for t in trials if t.tilt_deg == tilt])))
                      for tilt in tilts])
-    return NormalAccuracy(tilts, rmse, unsettled, body, trials)
+    return NormalAccuracy(tilts, rmse, unsettled, body, trials, intervals)
+
+
+def bootstrap_rmse_ci(errors_deg, level: float = 0.95, resamples: int = 2000, seed: int = 0) -> tuple[float, float]:
+    """Percentile bootstrap interval of the RMS of ``errors_deg`` ((n,) float), same units.
+
+    Seeded, so a report is reproducible; (nan, nan) for fewer than two values.
+    """
+    errors = np.asarray(errors_deg, dtype=float)
+    if len(errors) < 2:
+        return (math.nan, math.nan)
+    rng = np.random.default_rng(seed)
+    samples = errors[rng.integers(0, len(errors), size=(resamples, len(errors)))]
+    rms = np.sqrt(np.mean(samples**2, axis=1))
+    low, high = np.percentile(rms, [50 * (1 - level), 100 - 50 * (1 - level)])
+    return (float(low), float(high))

@@ -57,6 +57,11 @@ def to_json_dict(report: EvaluationReport) -> dict:
         "normal_error_by_variant_deg": {name: per_tilt(values) for name, values in normal.rmse_deg.items()}
         if normal else None,
         "pad_misalignment_rms_deg": per_tilt(normal.body_rmse_deg) if normal else None,
+        "normal_error_ci95_deg": {_tilt_key(t): [_finite_or_none(v) for v in ci] for t, ci in
+                                  zip(normal.tilts_deg, normal.rmse_ci95_deg[DEFAULT])} if normal else None,
+        "normal_error_per_press_deg": {_tilt_key(t): [_finite_or_none(p.errors_deg[DEFAULT]) for p in normal.trials
+                                                      if p.tilt_deg == t] for t in normal.tilts_deg}
+        if normal else None,
         "normal_unsettled_presses": {name: {_tilt_key(t): int(n) for t, n in zip(normal.tilts_deg, counts)}
                                      for name, counts in normal.unsettled.items()} if normal else None,
         "reference_mean_normal_error_deg": REFERENCE_MEAN_NORMAL_ERROR_DEG,
@@ -118,6 +123,10 @@ def format_table(report: EvaluationReport) -> str:
                          + f"{_fmt(normal.body_rmse_deg[i]):>17}")
         lines.append("   " + f"{'mean':>6}" + "".join(f"{_fmt(normal.mean_deg(v)):>17}" for v in variants)
                      + f"{_fmt(float(np.mean(normal.body_rmse_deg))):>17}")
+        intervals = normal.rmse_ci95_deg.get(DEFAULT)
+        if intervals is not None and len(intervals):
+            lines.append(f"   {DEFAULT} RMSE 95 % bootstrap interval per tilt: " + ", ".join(
+                f"{t:g}: {_fmt(lo, 1)}-{_fmt(hi, 1)}" for t, (lo, hi) in zip(normal.tilts_deg, intervals)))
         unsettled = {v: {f"{t:g} deg": int(n) for t, n in zip(normal.tilts_deg, counts) if n}
                      for v, counts in normal.unsettled.items() if counts.sum()}
         if unsettled:

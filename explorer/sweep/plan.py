@@ -13,9 +13,9 @@ from pathlib import Path
 from explorer.run import RunSettings
 
 #: Shared settings a restarted sweep must repeat exactly (its finished runs used them).
-SHARED_KEYS = ("robot", "touches", "eval_every", "mesh_resolution", "profile")
+SHARED_KEYS = ("robot", "touches", "eval_every", "mesh_resolution", "profile", "calibration")
 #: What a sweep.json written before a key existed meant by it.
-_SHARED_DEFAULTS = {"profile": "datasheet-noise"}
+_SHARED_DEFAULTS = {"profile": "datasheet-noise", "calibration": None}
 
 
 @dataclass(frozen=True)
@@ -40,6 +40,9 @@ class SweepConfig:
         Marching-cubes grid of each run's final reconstruction.
     profile : str
         Simulation profile name or TOML file (:mod:`explorer.sim_profile`).
+    calibration : str or None
+        An arm calibration file (``joint_calibration.json`` of ``scripts.calibrate_joints``) applied
+        to every run (:mod:`explorer.arm_calibration`); its robot, profile and seed must be the sweep's.
     """
 
     objects: tuple[str, ...]
@@ -51,6 +54,7 @@ class SweepConfig:
     eval_every: int = 5
     mesh_resolution: int = 96
     profile: str = "datasheet-noise"
+    calibration: str | None = None
 
     def __post_init__(self) -> None:
         import objects
@@ -62,6 +66,15 @@ class SweepConfig:
         get_profile(self.profile)  # raises naming the bad profile or parameter
         if self.profile not in PROFILES:  # a file: workers may start elsewhere
             object.__setattr__(self, "profile", str(Path(self.profile).resolve()))
+
+        if self.calibration is not None:
+            from explorer.arm_calibration import read_arm_calibration
+
+            calibration = read_arm_calibration(self.calibration)  # raises naming the file or field
+            object.__setattr__(self, "calibration", str(Path(self.calibration).resolve()))
+            if calibration.robot != self.robot or calibration.seed not in self.seeds or len(self.seeds) != 1:
+                raise ValueError(f"calibration {self.calibration} is of robot {calibration.robot!r}, seed "
+                                 f"{calibration.seed}: a calibrated sweep runs that robot and that one seed")
 
         for name in ("objects", "strategies", "seeds", "normals"):
             values = getattr(self, name)
@@ -123,7 +136,7 @@ class SweepRun:
         return RunSettings(object=self.object, robot=config.robot, strategy=self.strategy,
                            touches=config.touches, seed=self.seed, use_normals=self.use_normals,
                            eval_every=config.eval_every, mesh_resolution=config.mesh_resolution,
-                           profile=config.profile)
+                           profile=config.profile, calibration=config.calibration)
 
 
 def object_label(name: str) -> str:
