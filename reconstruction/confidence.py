@@ -20,6 +20,23 @@ import numpy as np
 DEFAULT_MAX_STD_M = 2.0e-3
 #: Faces with a vertex within this distance of a contact are always kept, metres.
 DEFAULT_KEEP_NEAR_CONTACT_M = 4.0e-3
+#: Vertices at most this far outside the contacts' convex hull are kept whatever their std, metres.
+DEFAULT_HULL_MARGIN_M = 2.0e-3
+
+
+def hull_distance(contacts: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """How far (m, 3) points lie outside the convex hull of (n, 3) contacts, metres; <= 0 inside.
+
+    The largest signed distance to the hull's facet planes: exact in front of a facet, a lower
+    bound near the hull's edges and corners. Contacts spanning no volume give +inf everywhere.
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        planes = ConvexHull(contacts).equations  # unit outward normals, offsets
+    except (QhullError, ValueError):
+        return np.full(len(x), np.inf)
+    return np.max(x @ planes[:, :3].T + planes[:, 3], axis=1)
 
 
 def vertex_std(gpis, vertices: np.ndarray, keep_near_contact_m: float) -> np.ndarray:
@@ -49,8 +66,14 @@ def vertex_std(gpis, vertices: np.ndarray, keep_near_contact_m: float) -> np.nda
 
 
 def confident_surface(gpis, mesh, max_std_m: float = DEFAULT_MAX_STD_M,
-                      keep_near_contact_m: float = DEFAULT_KEEP_NEAR_CONTACT_M):
-    """The faces of ``mesh`` whose vertices all have posterior std <= ``max_std_m``.
+                      keep_near_contact_m: float = DEFAULT_KEEP_NEAR_CONTACT_M,
+                      hull_margin_m: float | None = DEFAULT_HULL_MARGIN_M):
+    """The faces of ``mesh`` whose vertices are all confident.
+
+    A vertex is confident when its posterior std is <= ``max_std_m``, or it is within
+    ``keep_near_contact_m`` of a contact, or (unless ``hull_margin_m`` is None) it lies at most
+    ``hull_margin_m`` outside the convex hull of the contacts: smooth surface spanning sparse
+    contacts (a large flat face) is uncertain but not phantom; the lobes lie outside the hull.
 
     Parameters
     ----------
@@ -62,6 +85,9 @@ def confident_surface(gpis, mesh, max_std_m: float = DEFAULT_MAX_STD_M,
         Bound on the posterior standard deviation of ``f``, metres (> 0).
     keep_near_contact_m : float
         Faces with every vertex within this distance of a contact are kept regardless (>= 0).
+    hull_margin_m : float or None
+        Margin outside the contacts' convex hull within which uncertain vertices are kept (>= 0);
+        None cuts by the std alone.
 
     Returns
     -------
@@ -73,8 +99,13 @@ def confident_surface(gpis, mesh, max_std_m: float = DEFAULT_MAX_STD_M,
         raise ValueError(f"max_std_m must be a positive length, got {max_std_m!r}")
     if not (np.isfinite(keep_near_contact_m) and keep_near_contact_m >= 0):
         raise ValueError(f"keep_near_contact_m must be a length >= 0, got {keep_near_contact_m!r}")
-    std = vertex_std(gpis, np.asarray(mesh.vertices), keep_near_contact_m)
-    keep = np.all(std[mesh.faces] <= max_std_m, axis=1)
+    if hull_margin_m is not None and not (np.isfinite(hull_margin_m) and hull_margin_m >= 0):
+        raise ValueError(f"hull_margin_m must be None or a length >= 0, got {hull_margin_m!r}")
+    vertices = np.asarray(mesh.vertices)
+    confident = vertex_std(gpis, vertices, keep_near_contact_m) <= max_std_m
+    if hull_margin_m is not None:
+        confident |= hull_distance(gpis.contact_points, vertices) <= hull_margin_m
+    keep = np.all(confident[mesh.faces], axis=1)
     if keep.all() or not keep.any():
         return mesh.copy()
     out = mesh.copy()
