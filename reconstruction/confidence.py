@@ -102,9 +102,11 @@ def confident_surface(gpis, mesh, max_std_m: float = DEFAULT_MAX_STD_M,
     if hull_margin_m is not None and not (np.isfinite(hull_margin_m) and hull_margin_m >= 0):
         raise ValueError(f"hull_margin_m must be None or a length >= 0, got {hull_margin_m!r}")
     vertices = np.asarray(mesh.vertices)
-    confident = vertex_std(gpis, vertices, keep_near_contact_m) <= max_std_m
-    if hull_margin_m is not None:
-        confident |= hull_distance(gpis.contact_points, vertices) <= hull_margin_m
+    confident = np.zeros(len(vertices), bool)
+    if hull_margin_m is not None:  # cheap; the std is then needed only outside the hull
+        confident = hull_distance(gpis.contact_points, vertices) <= hull_margin_m
+    rest = ~confident
+    confident[rest] = vertex_std(gpis, vertices[rest], keep_near_contact_m) <= max_std_m
     keep = np.all(confident[mesh.faces], axis=1)
     if keep.all() or not keep.any():
         return mesh.copy()
