@@ -4,9 +4,11 @@ The mean's 0-level set is asserted everywhere, also where no contact constrains 
 kernel extrapolates (the slab between the two sides of a thin wall runs on past the rim, a sharp
 tip rounds into a lobe). The GP says where this happens: its posterior standard deviation of ``f``
 (metres near the surface, since ``f`` behaves like a signed distance) grows away from the contacts.
-:func:`confident_surface` removes the faces where it exceeds a bound, so the mesh shows only
-surface placed to within about that bound. Faces near a contact are never removed: touched surface
-stays, whatever the variance says.
+:func:`confident_surface` removes the faces where it exceeds a bound and that lie outside the
+contacts' convex hull (large faces between sparse contacts are uncertain too, but not phantom).
+Faces near a contact are never removed: touched surface stays, whatever the variance says.
+Between sparse contacts on smooth convex shapes it also cuts true surface (BENCHMARKS.md, issue
+10): an option for uses where a phantom bulge costs more than a hole.
 
 The result is an open mesh where unconfident parts were cut; use the full ``GPIS.mesh()`` where a
 closed surface is needed.
