@@ -6,6 +6,7 @@ Public API:
   kernels :class:`ThinPlateKernel`, :class:`ReferenceThinPlateKernel`,
   :class:`SquaredExponentialKernel`, :class:`QuadraticTrend`, :data:`KERNEL_NAMES`;
 * :func:`mesh_zero_level` (coarse-to-fine marching cubes of any implicit function);
+* :func:`confident_surface` (cut the faces where the posterior std of ``f`` is above a bound);
 * metrics: :func:`surface_error` (-> :class:`SurfaceError`), :func:`shape_metrics`,
   :func:`point_cloud_metrics` (-> :class:`ShapeMetrics`: Chamfer, F-score, normal consistency),
   :func:`contact_coverage`;
@@ -27,6 +28,7 @@ _LAZY = {
     "SquaredExponentialKernel": "reconstruction.kernels",
     "QuadraticTrend": "reconstruction.kernels",
     "mesh_zero_level": "reconstruction.meshing",
+    "confident_surface": "reconstruction.confidence",
     "SurfaceError": "reconstruction.metrics",
     "ShapeMetrics": "reconstruction.metrics",
     "FSCORE_THRESHOLDS_M": "reconstruction.metrics",

@@ -295,7 +295,8 @@ class GPIS:
         """A tracker of the variance at a fixed (m, 3) candidate set, updated per contact."""
         return VarianceTracker(self, candidates)
 
-    def mesh(self, bounds: Sequence[Sequence[float]] | None = None, resolution: int = 64):
+    def mesh(self, bounds: Sequence[Sequence[float]] | None = None, resolution: int = 64,
+             max_std_m: float | None = None):
         """The mean surface (0-level set) as a ``trimesh.Trimesh`` with outward normals.
 
         Parameters
@@ -304,12 +305,22 @@ class GPIS:
             Box to mesh; defaults to ``bounds`` or the padded contact box.
         resolution : int
             Grid samples along the longest side (cubic voxels).
+        max_std_m : float, optional
+            Keep only faces where the posterior standard deviation of ``f`` is at most this
+            (metres), cutting phantom surface far from the contacts; faces near a contact are
+            always kept (:func:`reconstruction.confidence.confident_surface`). The mesh is then
+            open where it was cut. None (default) returns the closed 0-level set.
         """
         from reconstruction.meshing import mesh_zero_level
 
         self._require_fit()
         box = self._region if bounds is None else _check_bounds(bounds)
-        return mesh_zero_level(self.mean, box, resolution)
+        surface = mesh_zero_level(self.mean, box, resolution)
+        if max_std_m is None:
+            return surface
+        from reconstruction.confidence import confident_surface
+
+        return confident_surface(self, surface, max_std_m)
 
     # ------------------------------------------------------------------ internals
     def _joint(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:

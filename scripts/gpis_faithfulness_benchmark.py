@@ -37,6 +37,7 @@ import numpy as np
 import objects
 from objects.proximity import MeshProximity
 from objects.sampling import sample_surface
+from reconstruction.confidence import DEFAULT_MAX_STD_M
 from reconstruction.gpis import GPIS
 from reconstruction.metrics import shape_metrics
 from reconstruction.synthetic_contacts import sample_contacts
@@ -90,6 +91,10 @@ METHODS = {"default": _current_default, "old-default": _old_default,
            "normal-noise-0.1": _Configured(normal_noise=0.1, opposing_normal_noise=None),
            "normal-noise-0.05": _Configured(normal_noise=0.05, opposing_normal_noise=None),
            "matern32-ml": _Configured(ml_matern32=(0.02, 0.04, 0.08, 0.16), opposing_normal_noise=None)}
+#: The default GPIS meshed with only its confident faces (``GPIS.mesh(max_std_m=...)``), by bound.
+CONFIDENT_BOUNDS_MM = {"confident": DEFAULT_MAX_STD_M * 1e3, "confident-1.5": 1.5, "confident-2.0": 2.0,
+                       "confident-2.5": 2.5, "confident-3.0": 3.0}
+METHODS.update({name: _current_default for name in CONFIDENT_BOUNDS_MM})
 
 
 def object_names(which: str, quick: bool) -> list[str]:
@@ -150,8 +155,10 @@ def run_case(method: str, name: str, truth, n_contacts: int, draw: int, resoluti
     t0 = time.perf_counter()
     gp = METHODS[method](object_bounds(truth)).fit(points, normals)
     fit_s = time.perf_counter() - t0
+    bound_mm = CONFIDENT_BOUNDS_MM.get(method)
     try:
-        metrics = compare(gp.mesh(resolution=resolution), truth, n_samples, seed)
+        mesh = gp.mesh(resolution=resolution, max_std_m=None if bound_mm is None else 1e-3 * bound_mm)
+        metrics = compare(mesh, truth, n_samples, seed)
     except ValueError as exc:  # no surface in the box: count as a failure, never drop it
         metrics = dict(rmse_mm=float("nan"), p99_mm=float("nan"), chamfer_mm=float("nan"),
                        f1=0.0, f2=0.0, error=str(exc))

@@ -268,6 +268,7 @@ def test_sweep_to_an_unreachable_ray_cluster_fails_at_once(tmp_path, capsys):
     (["--contacts", "0"], "argument --contacts: must be at least 1"),
     (["--objects", "teapot"], "--objects: unknown object 'teapot'"),
     (["--normal-std-mm", "-1"], "argument --normal-std-mm"),
+    (["--methods", "normals;magic"], "--methods: unknown method 'magic'"),
 ])
 def test_gpis_bench_refuses_bad_arguments_and_writes_nothing(tmp_path, capsys, args, message):
     from scripts.gpis_benchmark import main
