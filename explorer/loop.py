@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from explorer.config import ExplorationConfig
-from explorer.contact import LOOP_SETTLING, ContactPipeline, NoContactMeasured, ObjectFrame, misaligned
+from explorer.contact import LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, wants_realign
 from explorer.evidence import SurfaceEvidence
 from explorer.planner import ApproachPlan, ApproachPlanner
 from explorer.rig import Rig
@@ -86,6 +86,14 @@ class LoopConfig:
         and the next touch repeats it along the measured normal ("realign"), where the pad has
         little left to turn. The realign touch's contact is used as measured (simulated banana and
         cylinder: 0.2-0.6 mm and 1-6 deg off where the first was 2-5 mm and 15-25 deg off).
+        Since issue 11 only a doubtful contact (``doubt_*``) is set aside, and at most
+        ``max_realign_fraction`` of the budget goes to it (:func:`explorer.contact.wants_realign`).
+    max_realign_fraction : float
+        Largest share of ``touches`` set aside for realign repeats.
+    doubt_rim_margin_m, doubt_approach_angle_rad : float
+        The doubtful-contact rule (:class:`explorer.contact.DoubtRule`).
+    doubtful_normal_noise : float
+        Normal noise (GPIS gradient units) of a doubtful contact used as measured: at least this.
     """
 
     touches: int = ExplorationConfig.touches
@@ -102,6 +110,19 @@ class LoopConfig:
     free_space_noise: float = 0.005
     max_unreachable_in_a_row: int = 5
     realign_angle_rad: float = np.radians(15.0)
+    max_realign_fraction: float = 0.1
+    doubt_rim_margin_m: float = DoubtRule.rim_margin_m
+    doubt_approach_angle_rad: float = DoubtRule.approach_angle_rad
+    doubtful_normal_noise: float = 0.5
+
+    def doubt_rule(self) -> DoubtRule:
+        """The doubtful-contact rule of these settings."""
+        return DoubtRule(self.doubt_rim_margin_m, self.doubt_approach_angle_rad)
+
+    @property
+    def max_realigns(self) -> int:
+        """Realign repeats allowed in the whole budget."""
+        return int(np.floor(self.max_realign_fraction * self.touches + 1e-9))
 
 
 @dataclass
@@ -158,7 +179,7 @@ class ExplorationLoop:
         self.config = config
         self.recorder = recorder or Recorder()
         self.detector = detector or PressureContactDetector()
-        self.contact_pipeline = ContactPipeline(rig.kinematics, rig.pad, settling)
+        self.contact_pipeline = ContactPipeline(rig.kinematics, rig.pad, settling, doubt=config.doubt_rule())
         self.evidence = SurfaceEvidence(gpis, config.free_space_value, config.free_space_noise)
         self.state = ExplorationState(rig.prior)
         self.records: list[TouchOutcome] = []
@@ -253,7 +274,7 @@ class ExplorationLoop:
             if record.strategy and record.strategy != "realign":
                 self.strategy.accepted(Touch(record.target_m, record.approach_dir, strategy=record.strategy))
             if record.kind == "contact":
-                self.evidence.add_contact(record.position_m, record.normal)
+                self.evidence.add_contact(record.position_m, record.normal, self._normal_noise(record))
             elif record.kind == "miss" and record.free_space_m is not None:
                 self.evidence.add_free_space(record.free_space_m)
         if records and records[-1].kind == "realign":
@@ -295,13 +316,15 @@ class ExplorationLoop:
         self._retract(plan)
         self._poll()
         self.times.simulation_s += time.perf_counter() - t0
+        realigns = sum(r.kind == "realign" for r in self.records)
         if (record.kind == "contact" and plan.touch.strategy != "realign"
-                and misaligned(record.normal, record.approach_dir, cfg.realign_angle_rad)):
+                and wants_realign(record.quality, record.normal, record.approach_dir, cfg.realign_angle_rad,
+                                  realigns, cfg.max_realigns)):
             record.kind = "realign"
             self._follow_up = Touch(record.position_m, -record.normal, strategy="realign",
                                     depth_m=self.planner.config.depth_m)
         if record.kind == "contact":
-            self._update_gpis(record.position_m, record.normal)
+            self._update_gpis(record.position_m, record.normal, self._normal_noise(record))
         elif record.kind == "miss":
             record.free_space_m = self.evidence.inside_bounds(self.positioner.to_object(plan.path_world_m))
             self._add_free_space(record.free_space_m)
@@ -405,9 +428,13 @@ class ExplorationLoop:
         self._collect()
         return self.contact_pipeline.settled(self._contact_readings, self._baseline_pa)
 
-    def _update_gpis(self, point: np.ndarray, normal: np.ndarray) -> None:
+    def _normal_noise(self, record: TouchOutcome) -> float | None:
+        """The GPIS normal noise floor of a contact: ``doubtful_normal_noise`` if doubtful."""
+        return self.config.doubtful_normal_noise if getattr(record.quality, "doubtful", False) else None
+
+    def _update_gpis(self, point: np.ndarray, normal: np.ndarray, normal_noise: float | None = None) -> None:
         t0 = time.perf_counter()
-        self.evidence.add_contact(point, normal)
+        self.evidence.add_contact(point, normal, normal_noise)
         self.times.gpis_s += time.perf_counter() - t0
 
     def _add_free_space(self, points: np.ndarray) -> None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -101,6 +101,13 @@ def _touch_record(event, contacts_by_time) -> TouchOutcome:
     record.free_space_m = None if free_space is None else free_space.reshape(-1, 3)
     if record.kind == "contact":
         record.contact = contacts_by_time.get(event.t_s)
+    if isinstance(f.get("quality"), dict):
+        from explorer.contact import ContactQuality
+
+        known = {item.name for item in fields(ContactQuality)}
+        values = {k: tuple(v) if isinstance(v, list) else v for k, v in f["quality"].items() if k in known}
+        if "force_n" in values and "n_readings" in values:
+            record.quality = ContactQuality(**values)
     return record
 
 
