@@ -231,7 +231,7 @@ class DoubtRule:
         does not lean on its rim by friction), radians.
     """
 
-    rim_margin_m: float = 0.004
+    rim_margin_m: float = 0.006
     approach_angle_rad: float = float(np.radians(10.0))
 
     def doubtful(self, quality: "ContactQuality") -> bool:
