@@ -479,7 +479,10 @@ class SessionReplay:
         misaligned touch was set aside)."""
         if self.legacy_contacts:
             return 1 << 30
-        return self.loop_config.max_realigns
+        budget = self.configuration.get("touches", self.loop_config.touches)  # the run's --touches
+        resumed = [e.fields["touches"] for e in self.events if e.kind == "resumed" and "touches" in e.fields]
+        budget = int(resumed[-1]) if resumed else int(budget)  # a resumed run's last budget
+        return LoopConfig(touches=budget, max_realign_fraction=self.loop_config.max_realign_fraction).max_realigns
 
     def _swept_line(self, touch: TouchOutcome) -> np.ndarray:
         """The approach line of a touch the loop did not record as a miss, object frame (the
