@@ -94,6 +94,11 @@ class LoopConfig:
         The doubtful-contact rule (:class:`explorer.contact.DoubtRule`).
     doubtful_normal_noise : float
         Normal noise (GPIS gradient units) of a doubtful contact used as measured: at least this.
+    repress_force_n : float
+        A contact that is doubtful after the press is pressed on (at most ``press_depth_m`` further)
+        to this force and measured again from the readings of that second press: the pad reaches
+        the rim of its face at a tilt of about ``force x half width / spring stiffness`` (26 deg at
+        1 N), so more force turns it flat onto steeper slopes (issue 11). 0: no second press.
     """
 
     touches: int = ExplorationConfig.touches
@@ -114,6 +119,7 @@ class LoopConfig:
     doubt_rim_margin_m: float = DoubtRule.rim_margin_m
     doubt_approach_angle_rad: float = DoubtRule.approach_angle_rad
     doubtful_normal_noise: float = 0.5
+    repress_force_n: float = 3.0
 
     def doubt_rule(self) -> DoubtRule:
         """The doubtful-contact rule of these settings."""
@@ -308,9 +314,13 @@ class ExplorationLoop:
         if approach.stopped:
             start_pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
             remaining = plan.path_q[min(approach.waypoint_index + 1, len(plan.path_q) - 1):]
-            self.robot.guarded_move(remaining, stop=lambda: self._pressed(start_pad),
-                                    speed_rad_s=speed * cfg.press_speed_mps / cfg.approach_speed_mps)
+            press_speed = speed * cfg.press_speed_mps / cfg.approach_speed_mps
+            press = self.robot.guarded_move(remaining, stop=lambda: self._pressed(start_pad),
+                                            speed_rad_s=press_speed)
             self.robot.hold(cfg.settle_timeout_s, stop=self._settled_now)
+            if self._doubtful_now(record) and cfg.repress_force_n > 0:
+                record.repress_t_s = self._repress(remaining[min(press.waypoint_index, len(remaining) - 1):],
+                                                   press_speed)
             record = self._contact_record(record)
         record.press_t_s = (press_start, self.robot.time_s())
         self._retract(plan)
@@ -379,6 +389,29 @@ class ExplorationLoop:
         record.t_s = measured.world.t_s
         return record
 
+    def _doubtful_now(self, record: TouchOutcome) -> bool:
+        """The contact as it stands after the first press is doubtful (same pipeline, not recorded)."""
+        try:
+            measured = self.contact_pipeline.measure(self._contact_readings, self._baseline_pa,
+                                                     self.robot.joint_positions(),
+                                                     ObjectFrame.of_positioner(self.positioner), record.approach_dir)
+        except NoContactMeasured:
+            return False
+        return measured.quality.doubtful
+
+    def _repress(self, path_q: np.ndarray, speed_rad_s: float) -> float:
+        """Press on along ``path_q`` to ``repress_force_n`` (or ``press_depth_m`` further), hold until
+        settled; the contact is then measured from the readings after the returned time, seconds."""
+        cfg = self.config
+        self._collect()  # the second press's readings are those stamped after the first's last
+        t_s = self._contact_readings[-1].t_s if self._contact_readings else self.robot.time_s()
+        self._contact_readings = []
+        start_pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
+        self.robot.guarded_move(path_q, stop=lambda: self._pressed(start_pad, cfg.repress_force_n),
+                                speed_rad_s=speed_rad_s)
+        self.robot.hold(cfg.settle_timeout_s, stop=self._settled_now)
+        return t_s
+
     def _finish(self, record: TouchOutcome) -> TouchOutcome:
         self.records.append(record)
         self.recorder.touch(record)
@@ -412,16 +445,16 @@ class ExplorationLoop:
             self.detector.update(reading)
             self._contact_readings.append(reading)
 
-    def _pressed(self, start_pad_m: np.ndarray) -> bool:
-        """The press has reached its force, or its depth."""
+    def _pressed(self, start_pad_m: np.ndarray, force_n: float | None = None) -> bool:
+        """The press has reached its force (``press_force_n`` unless given), or its depth."""
         self._collect()
         if not self._contact_readings:
             return False
         rise = self._contact_readings[-1].pressure_pa - (self._baseline_pa or 0.0)
         pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
         travelled = float(np.linalg.norm(pad - start_pad_m))
-        force_n = self.contact_pipeline.force_estimate_n(rise)
-        return travelled >= self.config.press_depth_m or force_n >= self.config.press_force_n
+        target = self.config.press_force_n if force_n is None else force_n
+        return travelled >= self.config.press_depth_m or self.contact_pipeline.force_estimate_n(rise) >= target
 
     def _settled_now(self) -> bool:
         """The orientation over the latest settling window is steady."""

@@ -78,6 +78,8 @@ class RunRecorder(Recorder):
                       stand_yaw_rad=record.stand_yaw_rad, stand_tilt_rad=record.stand_tilt_rad)
         if record.press_t_s is not None:
             fields["press_t_s"] = [t + self.time_offset_s for t in record.press_t_s]
+        if record.repress_t_s is not None:
+            fields["repress_t_s"] = record.repress_t_s + self.time_offset_s
         if record.position_m is not None:  # also for contacts set aside for a realign touch
             fields.update(position_m=record.position_m.tolist(), normal=record.normal.tolist())
         if record.contact is not None:

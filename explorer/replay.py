@@ -403,6 +403,10 @@ class SessionReplay:
                 break
         if start is None:
             return touch
+        repress = event.fields.get("repress_t_s")
+        if repress is not None:  # the loop pressed on and measured the second press
+            touch.repress_t_s = float(repress)
+            start = max(start, int(np.searchsorted(t, float(repress), side="right")))
         self._measure(touch, range(start, stop if end is None else end), span)
         cfg = self.loop_config
         if (touch.kind == "contact" and touch.strategy != "realign"

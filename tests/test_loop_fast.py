@@ -37,7 +37,7 @@ def finished(tmp_path):
     recorder = RunRecorder(tmp_path, dict(rig.description, seed=0, configuration={}))
     loop = ExplorationLoop(rig, planner, ScriptedStrategy(scripted_touches()), gpis,
                            LoopConfig(touches=6, proposal_rounds=1, max_realign_fraction=1.0,
-                                      doubt_rim_margin_m=1.0), recorder)
+                                      doubt_rim_margin_m=1.0, repress_force_n=0.0), recorder)
     records = loop.run()
     recorder.close()
     return loop, records, tmp_path
