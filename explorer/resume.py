@@ -97,6 +97,8 @@ def _touch_record(event, contacts_by_time) -> TouchOutcome:
         stand_tilt_rad=float(f.get("stand_tilt_rad", 0.0)), position_m=vector("position_m"),
         normal=vector("normal"), t_s=event.t_s, strategy=str(f.get("strategy", "")),
         press_t_s=None if f.get("press_t_s") is None else tuple(f["press_t_s"]))
+    if f.get("repress_t_s") is not None:
+        record.repress_t_s = float(f["repress_t_s"])
     free_space = vector("free_space_m")
     record.free_space_m = None if free_space is None else free_space.reshape(-1, 3)
     if record.kind == "contact":
