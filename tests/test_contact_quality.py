@@ -227,3 +227,12 @@ def test_an_edged_shape_keeps_its_contacts_on_the_surface_and_realigns_within_bu
 def model_half_pad() -> float:
     """A contact further than the pad's half width from the truth is not on the pad at all."""
     return 0.009
+
+
+def test_the_analysis_script_refuses_a_directory_without_a_run(tmp_path, capsys):
+    from scripts.contact_quality import main
+
+    with pytest.raises(SystemExit) as exit_info:
+        main([str(tmp_path)])
+    assert exit_info.value.code == 2
+    assert "not a run directory" in capsys.readouterr().err
