@@ -229,10 +229,27 @@ class DoubtRule:
     approach_angle_rad : float
         ... and the measured normal is more than this from the approach (a pad pressed head on
         does not lean on its rim by friction), radians.
+    side_force_n : float or None
+        A press that ended below this force with the pad turned less than ``side_tilt_rad`` is
+        no contact of the pad's face: the press ran to its depth without the force and the pad
+        did not yield by turning, so it was pushed aside (the object met the pad's side or
+        corner; its centre can be more than the pad's half width off). The pipeline then raises
+        :class:`NoContactMeasured`. None (default, e.g. teleoperation, where the operator sets
+        the force): no such test; the loop sets it from its press force.
+    side_tilt_rad : float
+        See ``side_force_n``, radians.
     """
 
     rim_margin_m: float = 0.006
     approach_angle_rad: float = float(np.radians(10.0))
+    side_force_n: float | None = None
+    side_tilt_rad: float = float(np.radians(12.0))
+
+    def side_contact(self, quality: "ContactQuality") -> bool:
+        """Whether ``quality`` marks a press on the pad's side (see ``side_force_n``)."""
+        if self.side_force_n is None or quality.tilt_rad is None:
+            return False
+        return bool(quality.force_n < self.side_force_n and quality.tilt_rad < self.side_tilt_rad)
 
     def doubtful(self, quality: "ContactQuality") -> bool:
         """Whether ``quality`` (with ``rim_distance_m``) marks a doubtful normal."""
@@ -321,6 +338,9 @@ class ContactPipeline:
                                  tuple(float(v) for v in load.pad_uv_m),
                                  load.rim_distance_m(self.pad.half_width_m))
         quality = replace(quality, doubtful=self.doubt.doubtful(quality))
+        if self.doubt.side_contact(quality):
+            raise NoContactMeasured(f"the press ended at {contact.force_n:.2f} N with the pad turned "
+                                    f"{np.degrees(load.tilt_rad):.1f} deg: the pad's side or corner, not its face")
         return MeasuredContact(contact, p_obj[0], normal, quality)
 
     def force_estimate_n(self, pressure_rise_pa: float) -> float:

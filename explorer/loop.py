@@ -94,6 +94,10 @@ class LoopConfig:
         The doubtful-contact rule (:class:`explorer.contact.DoubtRule`).
     doubtful_normal_noise : float
         Normal noise (GPIS gradient units) of a doubtful contact used as measured: at least this.
+    side_contact_force_n, side_contact_tilt_rad : float
+        A press that ends below this force with the pad turned less than this angle met the
+        pad's side, not its face: ``no_normal`` (:class:`explorer.contact.DoubtRule`, ``side_*``).
+        0 force: no such test.
     repress_force_n : float
         A contact that is doubtful after the press is pressed on (at most ``press_depth_m`` further)
         to this force and measured again from the readings of that second press: the pad reaches
@@ -120,10 +124,13 @@ class LoopConfig:
     doubt_approach_angle_rad: float = DoubtRule.approach_angle_rad
     doubtful_normal_noise: float = 0.5
     repress_force_n: float = 3.0
+    side_contact_force_n: float = 1.3
+    side_contact_tilt_rad: float = float(np.radians(12.0))
 
     def doubt_rule(self) -> DoubtRule:
         """The doubtful-contact rule of these settings."""
-        return DoubtRule(self.doubt_rim_margin_m, self.doubt_approach_angle_rad)
+        return DoubtRule(self.doubt_rim_margin_m, self.doubt_approach_angle_rad,
+                         self.side_contact_force_n or None, self.side_contact_tilt_rad)
 
     @property
     def max_realigns(self) -> int:

@@ -41,7 +41,7 @@ rows between free moves (retract, stand turn, transfer), which leave gaps (:func
 from __future__ import annotations
 
 import warnings
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -279,6 +279,8 @@ class SessionReplay:
         # Sessions recorded before issue 11 measured contacts at the pad-face centre, had no
         # doubtful contacts and set aside every misaligned one: replayed as they were recorded.
         self.legacy_contacts = "max_realign_fraction" not in (configuration.get("loop") or {})
+        if "side_contact_force_n" not in (configuration.get("loop") or {}):  # recorded before the side test
+            self.loop_config = replace(self.loop_config, side_contact_force_n=0.0)
         self.pipeline = ContactPipeline(self.kinematics, self.pad, self.settling,
                                         centre_of_pressure=not self.legacy_contacts,
                                         doubt=DoubtRule(-np.inf) if self.legacy_contacts else self.loop_config.doubt_rule())

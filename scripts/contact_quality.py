@@ -47,6 +47,7 @@ def run_contacts(run: Path, replay: str | None) -> tuple[str, list[dict]]:
         from explorer.replay import SessionReplay
 
         from explorer.contact import ContactPipeline, DoubtRule
+        from explorer.loop import LoopConfig
 
         replayer = SessionReplay(session)
         if replay != "recorded":
@@ -54,7 +55,7 @@ def run_contacts(run: Path, replay: str | None) -> tuple[str, list[dict]]:
             replayer.legacy_contacts = not current
             replayer.pipeline = ContactPipeline(replayer.kinematics, replayer.pad, replayer.settling,
                                                 centre_of_pressure=current,
-                                                doubt=replayer.loop_config.doubt_rule() if current else DoubtRule(-np.inf))
+                                                doubt=LoopConfig().doubt_rule() if current else DoubtRule(-np.inf))
         touches = replayer.run(_settings())
         rows = [dict(index=t.index, kind=t.kind, strategy=t.strategy, position_m=t.position_m, normal=t.normal,
                      quality=_quality_dict(t.quality)) for t in touches.touches if t.position_m is not None]

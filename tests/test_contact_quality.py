@@ -47,13 +47,13 @@ def press_readings(body: Rotation, force_n: float, n: int = 40, dt_s: float = 0.
 
 
 def measure_resting_pad(tilt_rad: float, offset_m: float, force_n: float, contact_m: np.ndarray,
-                        centre_of_pressure: bool = True):
+                        centre_of_pressure: bool = True, doubt: DoubtRule | None = None):
     """The pipeline's contact for a pad turned by ``tilt_rad`` about the tool's y axis and touching at
     ``contact_m``, ``offset_m`` along the pad's x axis from the face centre (world frame)."""
     body = Rotation.from_euler("y", tilt_rad)
     pivot = contact_m - body.apply([offset_m, 0.0, PIVOT_TO_FACE_M])
     pad = PadCalibration(compliance_m_per_n=0.0, spring_stiffness_nm_per_rad=K_NM_PER_RAD)
-    pipeline = ContactPipeline(TiltedToolKinematics(pivot), pad, centre_of_pressure=centre_of_pressure)
+    pipeline = ContactPipeline(TiltedToolKinematics(pivot), pad, centre_of_pressure=centre_of_pressure, doubt=doubt)
     frame = ObjectFrame(np.eye(3), np.zeros(3))
     return pipeline.measure(press_readings(body, force_n), BASELINE_PA, np.zeros(3), frame,
                             approach_dir=np.array([0.0, 0.0, 1.0])), body
@@ -116,6 +116,20 @@ def test_a_pad_on_its_rim_is_doubtful_and_a_flat_head_on_pad_is_not():
     assert rim.quality.doubtful
     flat, _ = measure_resting_pad(0.0, 0.0, force, np.zeros(3))
     assert not flat.quality.doubtful and flat.quality.rim_distance_m == pytest.approx(0.009)
+
+
+def test_a_soft_press_that_did_not_turn_the_pad_is_no_contact():
+    """Below the side-contact force the pad must have turned (yielded by its spring) or the press
+    met the pad's side: no contact. Without the test (teleoperation) a light press is a contact."""
+    from explorer.contact import NoContactMeasured
+
+    rule = DoubtRule(side_force_n=1.3, side_tilt_rad=np.radians(12.0))
+    with pytest.raises(NoContactMeasured, match="side or corner"):
+        measure_resting_pad(0.0, 0.0, 0.8, np.zeros(3), doubt=rule)
+    assert measure_resting_pad(0.0, 0.0, 2.0, np.zeros(3), doubt=rule)[0].quality.force_n == pytest.approx(2.0)
+    turned = 1.0 * 0.007 / K_NM_PER_RAD  # 20 deg: the pad yielded by turning onto its rim
+    assert measure_resting_pad(turned, 0.007, 1.0, np.zeros(3), doubt=rule)[0].quality.doubtful
+    assert measure_resting_pad(0.0, 0.0, 0.8, np.zeros(3))[0].quality.force_n == pytest.approx(0.8)
 
 
 def test_the_doubt_rule_needs_both_the_rim_and_an_oblique_approach():
