@@ -8,11 +8,16 @@ once. The steps:
 1. the spring pivot from the forward kinematics of the encoder readings ``q``;
 2. :func:`sensor.normal_estimation.oriented_contact`: the settled IMU orientation gives the normal,
    the pad's force model the force, the pivot plus the rotated pivot-to-pad offset the pad face;
-3. the pad compression (force x compliance) added back along the normal: the surface point;
-4. the stand pose carries point and normal into the object frame.
+3. the centre of pressure on the pad face from the spring's deflection (:func:`pad_load`, issue
+   11): where the pad rests on its rim, an edge or a ridge, the contact is there, not at the
+   face centre;
+4. the pad compression (force x compliance) added back along the normal: the surface point;
+5. the stand pose carries point and normal into the object frame;
+6. the quality: :class:`DoubtRule` marks a doubtful normal (the pad on its rim) and, in the loop,
+   a press on the pad's side (no contact).
 
-The realign rule (:func:`misaligned`) is here too: the loop applies it live and replay applies it
-the same way.
+The realign rule (:func:`wants_realign`) is here too: the loop applies it live and replay applies
+it the same way.
 """
 from __future__ import annotations
 
@@ -316,7 +321,8 @@ class ContactPipeline:
         Raises
         ------
         NoContactMeasured
-            The orientation never settled, or the pressure saturated.
+            The orientation never settled, the pressure saturated, or (``DoubtRule.side_force_n``)
+            the press met the pad's side.
         """
         kin = self.kinematics
         pivot_pose = kin.forward_kinematics(q, link=kin.spec.pivot_link)

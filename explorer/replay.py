@@ -276,14 +276,18 @@ class SessionReplay:
         robot_name = robot if isinstance(robot, str) else robot.get("name")
         spec = robots.load(robot_name)
         self.kinematics = ArmKinematics(spec)
-        # Sessions recorded before issue 11 measured contacts at the pad-face centre, had no
-        # doubtful contacts and set aside every misaligned one: replayed as they were recorded.
-        self.legacy_contacts = "max_realign_fraction" not in (configuration.get("loop") or {})
-        if "side_contact_force_n" not in (configuration.get("loop") or {}):  # recorded before the side test
+        # Sessions recorded before issue 11 measured contacts at the pad-face centre (their pad
+        # calibration has no spring stiffness), had no doubtful contacts and set aside every
+        # misaligned one: replayed as they were recorded. Teleop uses the default rule.
+        recorded_loop = configuration.get("loop") or {}
+        centre_of_pressure = "spring_stiffness_nm_per_rad" in (configuration.get("pad") or {})
+        self.legacy_contacts = not self.teleop and "max_realign_fraction" not in recorded_loop
+        if "side_contact_force_n" not in recorded_loop:  # recorded before the side test
             self.loop_config = replace(self.loop_config, side_contact_force_n=0.0)
+        doubt = (DoubtRule() if self.teleop else DoubtRule(-np.inf) if self.legacy_contacts
+                 else self.loop_config.doubt_rule())
         self.pipeline = ContactPipeline(self.kinematics, self.pad, self.settling,
-                                        centre_of_pressure=not self.legacy_contacts,
-                                        doubt=DoubtRule(-np.inf) if self.legacy_contacts else self.loop_config.doubt_rule())
+                                        centre_of_pressure=centre_of_pressure, doubt=doubt)
         if self.joint_states.dof not in (0, spec.dof):
             raise ValueError(f"{session_dir}: joint_states.csv has {self.joint_states.dof} joints but "
                              f"robot {robot_name!r} has {spec.dof}")
