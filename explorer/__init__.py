@@ -13,7 +13,9 @@ Public API:
 * watching and sessions: :class:`RunObserver`, :class:`RerunObserver` with :func:`open_stream`
   (Rerun, the ``viz`` extra), :class:`RunRecorder`, :func:`read_session`,
   :class:`SessionReplay` with :class:`ReplaySettings` (-> :class:`ReplayResult`);
-* :func:`reconstruction_errors` (what ``metrics.json`` reports), :func:`load_config`.
+* :func:`reconstruction_errors` (what ``metrics.json`` reports), :func:`load_config`;
+* contact quality (issue 11): :class:`ContactPipeline`, :class:`ContactQuality`, :class:`DoubtRule`,
+  :func:`pad_load`, and against a known truth :func:`contact_truth`.
 
 Every name is imported on first use (module ``__getattr__``), so ``import explorer`` imports
 neither torch nor pybullet.
@@ -58,6 +60,11 @@ _LAZY = {
     "ReplaySettings": "explorer.replay",
     "ReplayResult": "explorer.replay",
     "reconstruction_errors": "explorer.evaluation",
+    "ContactPipeline": "explorer.contact",
+    "ContactQuality": "explorer.contact",
+    "DoubtRule": "explorer.contact",
+    "pad_load": "explorer.contact",
+    "contact_truth": "explorer.contact_truth",
 }
 
 __all__ = sorted(_LAZY)

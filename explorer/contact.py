@@ -8,15 +8,20 @@ once. The steps:
 1. the spring pivot from the forward kinematics of the encoder readings ``q``;
 2. :func:`sensor.normal_estimation.oriented_contact`: the settled IMU orientation gives the normal,
    the pad's force model the force, the pivot plus the rotated pivot-to-pad offset the pad face;
-3. the pad compression (force x compliance) added back along the normal: the surface point;
-4. the stand pose carries point and normal into the object frame.
+3. the centre of pressure on the pad face from the spring's deflection (:func:`pad_load`, issue
+   11): where the pad rests on its rim, an edge or a ridge, the contact is there, not at the
+   face centre;
+4. the pad compression (force x compliance) added back along the normal: the surface point;
+5. the stand pose carries point and normal into the object frame;
+6. the quality: :class:`DoubtRule` marks a doubtful normal (the pad on its rim) and, in the loop,
+   a press on the pad's side (no contact).
 
-The realign rule (:func:`misaligned`) is here too: the loop applies it live and replay applies it
-the same way.
+The realign rule (:func:`wants_realign`) is here too: the loop applies it live and replay applies
+it the same way.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -85,11 +90,25 @@ class ContactQuality:
     approach_cosine : float or None
         Cosine of the angle between the outward normal and the reversed approach direction (1: the
         pad met the surface head on); None when the approach is not known.
+    tilt_rad : float or None
+        Spring deflection: angle between the pad's face axis and the tool axis, radians.
+    pad_uv_m : (float, float) or None
+        Centre of pressure on the pad face from the spring's deflection (:class:`PadLoad`), along
+        the pad's x and y axes, metres (unclipped).
+    rim_distance_m : float or None
+        How far inside the pad's square that centre lies, metres; near zero or negative the pad
+        rests on its rim (an edge, a ridge, or friction holding it part way).
+    doubtful : bool
+        The normal may be off (:class:`DoubtRule`): the GPIS takes it with a larger noise.
     """
 
     force_n: float
     n_readings: int
     approach_cosine: float | None = None
+    tilt_rad: float | None = None
+    pad_uv_m: tuple[float, float] | None = None
+    rim_distance_m: float | None = None
+    doubtful: bool = False
 
     @property
     def approach_angle_rad(self) -> float | None:
@@ -97,6 +116,76 @@ class ContactQuality:
         if self.approach_cosine is None:
             return None
         return float(np.arccos(np.clip(self.approach_cosine, -1.0, 1.0)))
+
+
+@dataclass(frozen=True)
+class PadLoad:
+    """Where on the pad face the contact pressed, from the spring's deflection (world frame).
+
+    The spring is a two-axis gimbal at the pivot (``spring_x`` then ``spring_y``, see
+    ``robots/fingertip.py``); the encoders give the pivot frame, the IMU the pad's normal, so the two
+    spring angles follow. In equilibrium the contact force ``F n`` (``n`` the outward normal, the
+    force pushing the pad back) at the pad point ``s`` off the face centre holds the spring's torque:
+    ``F (s x n) . axis_i = k angle_i`` for both axes, two equations for the two in-plane components
+    of ``s``. Friction at the contact and gravity on the module are left out (they move ``s`` by at
+    most the pivot depth times the friction coefficient).
+
+    Attributes
+    ----------
+    offset_m : (3,) float
+        ``s``: from the pad-face centre to the centre of pressure, in the face plane, world frame,
+        metres, clipped to the pad's square.
+    pad_uv_m : (2,) float
+        ``s`` along the pad's x and y axes before clipping, metres.
+    spring_angles_rad : (2,) float
+        Spring deflection about the two gimbal axes, radians.
+    """
+
+    offset_m: np.ndarray
+    pad_uv_m: np.ndarray
+    spring_angles_rad: np.ndarray
+
+    @property
+    def tilt_rad(self) -> float:
+        """Angle between the pad's face axis and the tool's, radians."""
+        a, b = self.spring_angles_rad
+        return float(np.arccos(np.clip(np.cos(a) * np.cos(b), -1.0, 1.0)))
+
+    def rim_distance_m(self, half_width_m: float) -> float:
+        """How far the centre of pressure lies inside the pad's square face (negative: outside), metres."""
+        return float(half_width_m - np.max(np.abs(self.pad_uv_m)))
+
+
+def pad_load(pivot_rotation: np.ndarray, normal: np.ndarray, force_n: float, stiffness_nm_per_rad: float,
+             half_width_m: float) -> PadLoad:
+    """The centre of pressure on the pad from the spring's deflection (:class:`PadLoad`).
+
+    Parameters
+    ----------
+    pivot_rotation : (3, 3) float
+        Pivot frame -> world (forward kinematics of the encoders); its +z is the tool axis.
+    normal : (3,) float
+        Measured outward surface normal, world frame (minus the pad's face axis).
+    force_n : float
+        Contact force, newtons (> 0).
+    stiffness_nm_per_rad, half_width_m : float
+        The spring's stiffness per axis and the pad's half side.
+    """
+    pivot_rotation = np.asarray(pivot_rotation, float)
+    normal = np.asarray(normal, float) / np.linalg.norm(normal)
+    z = pivot_rotation.T @ -normal  # the pad's face axis in the pivot frame = Rx(a) Ry(b) e_z
+    b = float(np.arcsin(np.clip(z[0], -1.0, 1.0)))
+    a = float(np.arctan2(-z[1], z[2]))
+    ca, sa, cb, sb = np.cos(a), np.sin(a), np.cos(b), np.sin(b)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, ca, -sa], [0.0, sa, ca]])
+    ry = np.array([[cb, 0.0, sb], [0.0, 1.0, 0.0], [-sb, 0.0, cb]])
+    body = pivot_rotation @ rx @ ry
+    axes = (pivot_rotation[:, 0], pivot_rotation @ rx[:, 1])
+    force = max(float(force_n), 1e-6)
+    matrix = np.array([[force * np.dot(np.cross(body[:, j], normal), axis) for j in (0, 1)] for axis in axes])
+    uv = np.linalg.solve(matrix, stiffness_nm_per_rad * np.array([a, b]))
+    clipped = np.clip(uv, -half_width_m, half_width_m)
+    return PadLoad(body[:, :2] @ clipped, uv, np.array([a, b]))
 
 
 @dataclass(frozen=True)
@@ -128,6 +217,64 @@ def misaligned(normal: np.ndarray, approach_dir: np.ndarray, realign_angle_rad: 
     return float(np.dot(normal, -approach_dir)) < np.cos(realign_angle_rad)
 
 
+@dataclass(frozen=True)
+class DoubtRule:
+    """When a contact's normal is doubtful, from what the loop has on hardware too (issue 11).
+
+    The pad's normal is the surface's only where the pad lies flat on it. Where it rests on its
+    rim (on an edge or a ridge, or held part way round by friction on a slope) the spring's
+    deflection puts the centre of pressure near the rim of the face (:class:`PadLoad`), and the
+    normal is off by up to the angle the pad still had to turn. Thresholds chosen on the tuning
+    split of the generated objects (BENCHMARKS.md, issue 11).
+
+    Attributes
+    ----------
+    rim_margin_m : float
+        Doubtful when the centre of pressure lies less than this inside the pad's square, metres.
+    approach_angle_rad : float
+        ... and the measured normal is more than this from the approach (a pad pressed head on
+        does not lean on its rim by friction), radians.
+    side_force_n : float or None
+        A press that ended below this force with the pad turned less than ``side_tilt_rad`` is
+        no contact of the pad's face: the press ran to its depth without the force and the pad
+        did not yield by turning, so it was pushed aside (the object met the pad's side or
+        corner; its centre can be more than the pad's half width off). The pipeline then raises
+        :class:`NoContactMeasured`. None (default, e.g. teleoperation, where the operator sets
+        the force): no such test; the loop sets it from its press force.
+    side_tilt_rad : float
+        See ``side_force_n``, radians.
+    """
+
+    rim_margin_m: float = 0.006
+    approach_angle_rad: float = float(np.radians(10.0))
+    side_force_n: float | None = None
+    side_tilt_rad: float = float(np.radians(12.0))
+
+    def side_contact(self, quality: "ContactQuality") -> bool:
+        """Whether ``quality`` marks a press on the pad's side (see ``side_force_n``)."""
+        if self.side_force_n is None or quality.tilt_rad is None:
+            return False
+        return bool(quality.force_n < self.side_force_n and quality.tilt_rad < self.side_tilt_rad)
+
+    def doubtful(self, quality: "ContactQuality") -> bool:
+        """Whether ``quality`` (with ``rim_distance_m``) marks a doubtful normal."""
+        if quality.rim_distance_m is None:
+            return False
+        leaning = quality.approach_cosine is None or quality.approach_cosine < np.cos(self.approach_angle_rad)
+        return bool(quality.rim_distance_m < self.rim_margin_m and leaning)
+
+
+def wants_realign(quality: "ContactQuality", normal: np.ndarray, approach_dir: np.ndarray,
+                  realign_angle_rad: float, realigns_so_far: int, max_realigns: int) -> bool:
+    """The realign rule (issue 11): set the contact aside and repeat it along its normal only when
+    it is doubtful, misaligned by more than ``realign_angle_rad`` and the realign budget
+    (``max_realigns`` touches) is not spent. Otherwise a doubtful contact is used with a larger
+    normal noise. ``quality`` None (no pad-load estimate): the plain angle rule."""
+    if realigns_so_far >= max_realigns or not misaligned(normal, approach_dir, realign_angle_rad):
+        return False
+    return quality is None or bool(getattr(quality, "doubtful", True))
+
+
 class ContactPipeline:
     """Measures contacts of one arm and pad.
 
@@ -139,12 +286,20 @@ class ContactPipeline:
         The sensor's pad: force model, compliance, IMU mounting.
     settling : SettlingConfig
         When the orientation counts as settled.
+    centre_of_pressure : bool
+        Place the contact at the centre of pressure the spring's deflection gives (:func:`pad_load`)
+        instead of the pad-face centre (False: the pipeline before issue 11, for comparison).
+    doubt : DoubtRule, optional
+        When a contact is doubtful (default :class:`DoubtRule`).
     """
 
-    def __init__(self, kinematics, pad: PadCalibration, settling: SettlingConfig = LOOP_SETTLING):
+    def __init__(self, kinematics, pad: PadCalibration, settling: SettlingConfig = LOOP_SETTLING,
+                 centre_of_pressure: bool = True, doubt: DoubtRule | None = None):
         self.kinematics = kinematics
+        self.doubt = doubt if doubt is not None else DoubtRule()
         self.pad = pad
         self.settling = settling
+        self.centre_of_pressure = centre_of_pressure
 
     def measure(self, readings: Sequence[Reading], baseline_pa: float, q: np.ndarray, frame: ObjectFrame,
                 approach_dir: np.ndarray | None = None) -> MeasuredContact:
@@ -166,21 +321,33 @@ class ContactPipeline:
         Raises
         ------
         NoContactMeasured
-            The orientation never settled, or the pressure saturated.
+            The orientation never settled, the pressure saturated, or (``DoubtRule.side_force_n``)
+            the press met the pad's side.
         """
         kin = self.kinematics
-        pivot = kin.forward_kinematics(q, link=kin.spec.pivot_link).position_m
+        pivot_pose = kin.forward_kinematics(q, link=kin.spec.pivot_link)
+        pivot = pivot_pose.position_m
         try:
             contact = oriented_contact(readings, pivot, kin.pivot_to_pad_in_body, baseline_pa,
                                        pad=self.pad.force_model, settling=self.settling,
                                        alignment=self.pad.alignment)
         except (OrientationNotSettledError, ValueError) as err:  # ValueError: saturated, too few readings
             raise NoContactMeasured(str(err)) from err
-        surface = self.pad.surface_point(contact.position_m, contact.normal, contact.force_n)
+        load = pad_load(pivot_pose.rotation, contact.normal, contact.force_n, self.pad.spring_stiffness_nm_per_rad,
+                        self.pad.half_width_m)
+        touched = contact.position_m + (load.offset_m if self.centre_of_pressure else 0.0)
+        surface = self.pad.surface_point(touched, contact.normal, contact.force_n)
         p_obj, n_obj = frame.to_object(surface[None], contact.normal[None])
         normal = n_obj[0] / np.linalg.norm(n_obj[0])
         cosine = None if approach_dir is None else float(np.dot(normal, -np.asarray(approach_dir, float)))
-        return MeasuredContact(contact, p_obj[0], normal, ContactQuality(contact.force_n, len(readings), cosine))
+        quality = ContactQuality(contact.force_n, len(readings), cosine, load.tilt_rad,
+                                 tuple(float(v) for v in load.pad_uv_m),
+                                 load.rim_distance_m(self.pad.half_width_m))
+        quality = replace(quality, doubtful=self.doubt.doubtful(quality))
+        if self.doubt.side_contact(quality):
+            raise NoContactMeasured(f"the press ended at {contact.force_n:.2f} N with the pad turned "
+                                    f"{np.degrees(load.tilt_rad):.1f} deg: the pad's side or corner, not its face")
+        return MeasuredContact(contact, p_obj[0], normal, quality)
 
     def force_estimate_n(self, pressure_rise_pa: float) -> float:
         """Force for a pressure rise over the baseline (clipped into the model's range), newtons."""

@@ -29,10 +29,13 @@ class SurfaceEvidence:
         self.free_space_noise = free_space_noise
         self._pending: list[np.ndarray] = []
 
-    def add_contact(self, point: np.ndarray, normal: np.ndarray) -> None:
-        """A surface point (3,) and outward unit normal (3,); raises ValueError outside the GPIS bounds."""
+    def add_contact(self, point: np.ndarray, normal: np.ndarray, normal_noise: float | None = None) -> None:
+        """A surface point (3,) and outward unit normal (3,); raises ValueError outside the GPIS bounds.
+
+        ``normal_noise``: a floor for this contact's normal noise (a doubtful contact), None: the GPIS's rules.
+        """
         first = self.gpis.n_contacts == 0
-        self.gpis.add(point, normal)
+        self.gpis.add(point, normal, normal_noise=normal_noise)
         if first and self._pending:
             self._add_values(np.vstack(self._pending))
             self._pending = []

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from explorer.config import ExplorationConfig
-from explorer.contact import LOOP_SETTLING, ContactPipeline, NoContactMeasured, ObjectFrame, misaligned
+from explorer.contact import LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, wants_realign
 from explorer.evidence import SurfaceEvidence
 from explorer.planner import ApproachPlan, ApproachPlanner
 from explorer.rig import Rig
@@ -86,6 +86,23 @@ class LoopConfig:
         and the next touch repeats it along the measured normal ("realign"), where the pad has
         little left to turn. The realign touch's contact is used as measured (simulated banana and
         cylinder: 0.2-0.6 mm and 1-6 deg off where the first was 2-5 mm and 15-25 deg off).
+        Since issue 11 only a doubtful contact (``doubt_*``) is set aside, and at most
+        ``max_realign_fraction`` of the budget goes to it (:func:`explorer.contact.wants_realign`).
+    max_realign_fraction : float
+        Largest share of ``touches`` set aside for realign repeats.
+    doubt_rim_margin_m, doubt_approach_angle_rad : float
+        The doubtful-contact rule (:class:`explorer.contact.DoubtRule`).
+    doubtful_normal_noise : float
+        Normal noise (GPIS gradient units) of a doubtful contact used as measured: at least this.
+    side_contact_force_n, side_contact_tilt_rad : float
+        A press that ends below this force with the pad turned less than this angle met the
+        pad's side, not its face: ``no_normal`` (:class:`explorer.contact.DoubtRule`, ``side_*``).
+        0 force: no such test.
+    repress_force_n : float
+        A contact that is doubtful after the press is pressed on (at most ``press_depth_m`` further)
+        to this force and measured again from the readings of that second press: the pad reaches
+        the rim of its face at a tilt of about ``force x half width / spring stiffness`` (26 deg at
+        1 N), so more force turns it flat onto steeper slopes (issue 11). 0: no second press.
     """
 
     touches: int = ExplorationConfig.touches
@@ -102,6 +119,23 @@ class LoopConfig:
     free_space_noise: float = 0.005
     max_unreachable_in_a_row: int = 5
     realign_angle_rad: float = np.radians(15.0)
+    max_realign_fraction: float = 0.1
+    doubt_rim_margin_m: float = DoubtRule.rim_margin_m
+    doubt_approach_angle_rad: float = DoubtRule.approach_angle_rad
+    doubtful_normal_noise: float = 0.5
+    repress_force_n: float = 3.0
+    side_contact_force_n: float = 1.3
+    side_contact_tilt_rad: float = float(np.radians(12.0))
+
+    def doubt_rule(self) -> DoubtRule:
+        """The doubtful-contact rule of these settings."""
+        return DoubtRule(self.doubt_rim_margin_m, self.doubt_approach_angle_rad,
+                         self.side_contact_force_n or None, self.side_contact_tilt_rad)
+
+    @property
+    def max_realigns(self) -> int:
+        """Realign repeats allowed in the whole budget."""
+        return int(np.floor(self.max_realign_fraction * self.touches + 1e-9))
 
 
 @dataclass
@@ -158,7 +192,7 @@ class ExplorationLoop:
         self.config = config
         self.recorder = recorder or Recorder()
         self.detector = detector or PressureContactDetector()
-        self.contact_pipeline = ContactPipeline(rig.kinematics, rig.pad, settling)
+        self.contact_pipeline = ContactPipeline(rig.kinematics, rig.pad, settling, doubt=config.doubt_rule())
         self.evidence = SurfaceEvidence(gpis, config.free_space_value, config.free_space_noise)
         self.state = ExplorationState(rig.prior)
         self.records: list[TouchOutcome] = []
@@ -253,7 +287,7 @@ class ExplorationLoop:
             if record.strategy and record.strategy != "realign":
                 self.strategy.accepted(Touch(record.target_m, record.approach_dir, strategy=record.strategy))
             if record.kind == "contact":
-                self.evidence.add_contact(record.position_m, record.normal)
+                self.evidence.add_contact(record.position_m, record.normal, self._normal_noise(record))
             elif record.kind == "miss" and record.free_space_m is not None:
                 self.evidence.add_free_space(record.free_space_m)
         if records and records[-1].kind == "realign":
@@ -287,21 +321,27 @@ class ExplorationLoop:
         if approach.stopped:
             start_pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
             remaining = plan.path_q[min(approach.waypoint_index + 1, len(plan.path_q) - 1):]
-            self.robot.guarded_move(remaining, stop=lambda: self._pressed(start_pad),
-                                    speed_rad_s=speed * cfg.press_speed_mps / cfg.approach_speed_mps)
+            press_speed = speed * cfg.press_speed_mps / cfg.approach_speed_mps
+            press = self.robot.guarded_move(remaining, stop=lambda: self._pressed(start_pad),
+                                            speed_rad_s=press_speed)
             self.robot.hold(cfg.settle_timeout_s, stop=self._settled_now)
+            if self._doubtful_now(record) and cfg.repress_force_n > 0:
+                record.repress_t_s = self._repress(remaining[min(press.waypoint_index, len(remaining) - 1):],
+                                                   press_speed)
             record = self._contact_record(record)
         record.press_t_s = (press_start, self.robot.time_s())
         self._retract(plan)
         self._poll()
         self.times.simulation_s += time.perf_counter() - t0
+        realigns = sum(r.kind == "realign" for r in self.records)
         if (record.kind == "contact" and plan.touch.strategy != "realign"
-                and misaligned(record.normal, record.approach_dir, cfg.realign_angle_rad)):
+                and wants_realign(record.quality, record.normal, record.approach_dir, cfg.realign_angle_rad,
+                                  realigns, cfg.max_realigns)):
             record.kind = "realign"
             self._follow_up = Touch(record.position_m, -record.normal, strategy="realign",
                                     depth_m=self.planner.config.depth_m)
         if record.kind == "contact":
-            self._update_gpis(record.position_m, record.normal)
+            self._update_gpis(record.position_m, record.normal, self._normal_noise(record))
         elif record.kind == "miss":
             record.free_space_m = self.evidence.inside_bounds(self.positioner.to_object(plan.path_world_m))
             self._add_free_space(record.free_space_m)
@@ -356,6 +396,29 @@ class ExplorationLoop:
         record.t_s = measured.world.t_s
         return record
 
+    def _doubtful_now(self, record: TouchOutcome) -> bool:
+        """The contact as it stands after the first press is doubtful (same pipeline, not recorded)."""
+        try:
+            measured = self.contact_pipeline.measure(self._contact_readings, self._baseline_pa,
+                                                     self.robot.joint_positions(),
+                                                     ObjectFrame.of_positioner(self.positioner), record.approach_dir)
+        except NoContactMeasured:
+            return False
+        return measured.quality.doubtful
+
+    def _repress(self, path_q: np.ndarray, speed_rad_s: float) -> float:
+        """Press on along ``path_q`` to ``repress_force_n`` (or ``press_depth_m`` further), hold until
+        settled; the contact is then measured from the readings after the returned time, seconds."""
+        cfg = self.config
+        self._collect()  # the second press's readings are those stamped after the first's last
+        t_s = self._contact_readings[-1].t_s if self._contact_readings else self.robot.time_s()
+        self._contact_readings = []
+        start_pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
+        self.robot.guarded_move(path_q, stop=lambda: self._pressed(start_pad, cfg.repress_force_n),
+                                speed_rad_s=speed_rad_s)
+        self.robot.hold(cfg.settle_timeout_s, stop=self._settled_now)
+        return t_s
+
     def _finish(self, record: TouchOutcome) -> TouchOutcome:
         self.records.append(record)
         self.recorder.touch(record)
@@ -389,25 +452,29 @@ class ExplorationLoop:
             self.detector.update(reading)
             self._contact_readings.append(reading)
 
-    def _pressed(self, start_pad_m: np.ndarray) -> bool:
-        """The press has reached its force, or its depth."""
+    def _pressed(self, start_pad_m: np.ndarray, force_n: float | None = None) -> bool:
+        """The press has reached its force (``press_force_n`` unless given), or its depth."""
         self._collect()
         if not self._contact_readings:
             return False
         rise = self._contact_readings[-1].pressure_pa - (self._baseline_pa or 0.0)
         pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
         travelled = float(np.linalg.norm(pad - start_pad_m))
-        force_n = self.contact_pipeline.force_estimate_n(rise)
-        return travelled >= self.config.press_depth_m or force_n >= self.config.press_force_n
+        target = self.config.press_force_n if force_n is None else force_n
+        return travelled >= self.config.press_depth_m or self.contact_pipeline.force_estimate_n(rise) >= target
 
     def _settled_now(self) -> bool:
         """The orientation over the latest settling window is steady."""
         self._collect()
         return self.contact_pipeline.settled(self._contact_readings, self._baseline_pa)
 
-    def _update_gpis(self, point: np.ndarray, normal: np.ndarray) -> None:
+    def _normal_noise(self, record: TouchOutcome) -> float | None:
+        """The GPIS normal noise floor of a contact: ``doubtful_normal_noise`` if doubtful."""
+        return self.config.doubtful_normal_noise if getattr(record.quality, "doubtful", False) else None
+
+    def _update_gpis(self, point: np.ndarray, normal: np.ndarray, normal_noise: float | None = None) -> None:
         t0 = time.perf_counter()
-        self.evidence.add_contact(point, normal)
+        self.evidence.add_contact(point, normal, normal_noise)
         self.times.gpis_s += time.perf_counter() - t0
 
     def _add_free_space(self, points: np.ndarray) -> None:

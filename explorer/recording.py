@@ -22,7 +22,7 @@ from explorer.observer import RunObserver
 from explorer.touch import TouchOutcome
 from explorer.session import SessionWriter
 
-CONTACTS_HEADER = "touch,x,y,z,nx,ny,nz,t_s,force_n,stand_yaw_rad,stand_tilt_rad\n"
+CONTACTS_HEADER = "touch,x,y,z,nx,ny,nz,t_s,force_n,stand_yaw_rad,stand_tilt_rad,doubtful\n"
 
 
 class RunRecorder(Recorder):
@@ -78,10 +78,14 @@ class RunRecorder(Recorder):
                       stand_yaw_rad=record.stand_yaw_rad, stand_tilt_rad=record.stand_tilt_rad)
         if record.press_t_s is not None:
             fields["press_t_s"] = [t + self.time_offset_s for t in record.press_t_s]
+        if record.repress_t_s is not None:
+            fields["repress_t_s"] = record.repress_t_s + self.time_offset_s
         if record.position_m is not None:  # also for contacts set aside for a realign touch
             fields.update(position_m=record.position_m.tolist(), normal=record.normal.tolist())
         if record.contact is not None:
             fields["force_n"] = record.contact.force_n
+        if record.quality is not None:
+            fields["quality"] = quality_fields(record.quality)
         if record.free_space_m is not None:
             fields["free_space_m"] = np.asarray(record.free_space_m).tolist()
         self.session.write_event(kind, record.t_s + self.time_offset_s, **fields)
@@ -134,9 +138,24 @@ class RunRecorder(Recorder):
 
 
 def contacts_csv_row(record: TouchOutcome, t_s: float, force_n: float) -> str:
-    """The ``contacts.csv`` line of a contact (``repr`` of a Python float round-trips exactly)."""
+    """The ``contacts.csv`` line of a contact (``repr`` of a Python float round-trips exactly);
+    ``doubtful`` is 1 for a contact the GPIS took with a larger normal noise (issue 11)."""
     values = [*record.position_m, *record.normal, t_s, force_n, record.stand_yaw_rad, record.stand_tilt_rad]
-    return f"{record.index}," + ",".join(repr(float(v)) for v in values) + "\n"
+    doubtful = int(bool(getattr(record.quality, "doubtful", False)))
+    return f"{record.index}," + ",".join(repr(float(v)) for v in values) + f",{doubtful}\n"
+
+
+def quality_fields(quality) -> dict:
+    """The touch event's ``quality`` object: a :class:`explorer.contact.ContactQuality` as plain JSON
+    values (None fields left out)."""
+    out = {}
+    for item in dataclasses.fields(quality):
+        value = getattr(quality, item.name)
+        if value is None:
+            continue
+        out[item.name] = [float(v) for v in value] if isinstance(value, tuple) else (
+            bool(value) if isinstance(value, bool) else int(value) if isinstance(value, int) else float(value))
+    return out
 
 
 def read_contacts_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:

@@ -41,13 +41,13 @@ rows between free moves (retract, stand turn, transfer), which leave gaps (:func
 from __future__ import annotations
 
 import warnings
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
 
 from explorer import outputs
-from explorer.contact import LOOP_SETTLING, ContactPipeline, NoContactMeasured, ObjectFrame, misaligned
+from explorer.contact import LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, wants_realign
 from explorer.evaluation import jsonable
 from explorer.evidence import SurfaceEvidence
 from explorer.loop import LoopConfig
@@ -276,7 +276,18 @@ class SessionReplay:
         robot_name = robot if isinstance(robot, str) else robot.get("name")
         spec = robots.load(robot_name)
         self.kinematics = ArmKinematics(spec)
-        self.pipeline = ContactPipeline(self.kinematics, self.pad, self.settling)
+        # Sessions recorded before issue 11 measured contacts at the pad-face centre (their pad
+        # calibration has no spring stiffness), had no doubtful contacts and set aside every
+        # misaligned one: replayed as they were recorded. Teleop uses the default rule.
+        recorded_loop = configuration.get("loop") or {}
+        centre_of_pressure = "spring_stiffness_nm_per_rad" in (configuration.get("pad") or {})
+        self.legacy_contacts = not self.teleop and "max_realign_fraction" not in recorded_loop
+        if "side_contact_force_n" not in recorded_loop:  # recorded before the side test
+            self.loop_config = replace(self.loop_config, side_contact_force_n=0.0)
+        doubt = (DoubtRule() if self.teleop else DoubtRule(-np.inf) if self.legacy_contacts
+                 else self.loop_config.doubt_rule())
+        self.pipeline = ContactPipeline(self.kinematics, self.pad, self.settling,
+                                        centre_of_pressure=centre_of_pressure, doubt=doubt)
         if self.joint_states.dof not in (0, spec.dof):
             raise ValueError(f"{session_dir}: joint_states.csv has {self.joint_states.dof} joints but "
                              f"robot {robot_name!r} has {spec.dof}")
@@ -313,7 +324,8 @@ class SessionReplay:
                 touches.append(self._replay_teleop_touch(event, span, detected, used, notes))
         else:
             for event, span in self._pressed_touches(settings, notes):
-                touches.append(self._replay_touch(event, span, detector_config))
+                realigns = sum(t.kind == "realign" for t in touches)
+                touches.append(self._replay_touch(event, span, detector_config, realigns))
         use_normals = (self.configuration.get("use_normals", True) if settings.use_normals is None
                        else settings.use_normals)
         gpis = self._fit(touches, settings, use_normals, notes)
@@ -381,7 +393,7 @@ class SessionReplay:
         for i in sorted(set(range(len(spans))) - used):
             notes.append(f"press at t = {spans[i].t_start_s:.3f} s has no touch event (cut off?); skipped")
 
-    def _replay_touch(self, event, span: PressSpan, detector_config) -> TouchOutcome:
+    def _replay_touch(self, event, span: PressSpan, detector_config, realigns_so_far: int = 0) -> TouchOutcome:
         """An autonomous touch: the detector reset at the span's start sees its readings."""
         touch = _touch_from_event(event)
         t = self.readings.t_s
@@ -400,9 +412,15 @@ class SessionReplay:
                 break
         if start is None:
             return touch
+        repress = event.fields.get("repress_t_s")
+        if repress is not None:  # the loop pressed on and measured the second press
+            touch.repress_t_s = float(repress)
+            start = max(start, int(np.searchsorted(t, float(repress), side="right")))
         self._measure(touch, range(start, stop if end is None else end), span)
+        cfg = self.loop_config
         if (touch.kind == "contact" and touch.strategy != "realign"
-                and misaligned(touch.normal, touch.approach_dir, self.loop_config.realign_angle_rad)):
+                and wants_realign(None if self.legacy_contacts else touch.quality, touch.normal,
+                                  touch.approach_dir, cfg.realign_angle_rad, realigns_so_far, self._max_realigns())):
             touch.kind = "realign"  # set aside, as the loop did; the repeat is the next touch
         return touch
 
@@ -457,7 +475,9 @@ class SessionReplay:
         for touch in touches:
             if touch.kind == "contact":
                 try:
-                    evidence.add_contact(touch.position_m, touch.normal)
+                    doubtful = getattr(touch.quality, "doubtful", False)
+                    evidence.add_contact(touch.position_m, touch.normal,
+                                         self.loop_config.doubtful_normal_noise if doubtful else None)
                 except ValueError as err:  # outside the prior box (teleop keeps such contacts unmodelled)
                     touch.kind = "not_modelled"
                     notes.append(f"touch {touch.index}: not modelled: {err}")
@@ -466,6 +486,16 @@ class SessionReplay:
                     touch.free_space_m = evidence.inside_bounds(self._swept_line(touch))
                 evidence.add_free_space(touch.free_space_m)
         return gpis
+
+    def _max_realigns(self) -> int:
+        """The loop's realign budget; sessions recorded before it existed had none (every
+        misaligned touch was set aside)."""
+        if self.legacy_contacts:
+            return 1 << 30
+        budget = self.configuration.get("touches", self.loop_config.touches)  # the run's --touches
+        resumed = [e.fields["touches"] for e in self.events if e.kind == "resumed" and "touches" in e.fields]
+        budget = int(resumed[-1]) if resumed else int(budget)  # a resumed run's last budget
+        return LoopConfig(touches=budget, max_realign_fraction=self.loop_config.max_realign_fraction).max_realigns
 
     def _swept_line(self, touch: TouchOutcome) -> np.ndarray:
         """The approach line of a touch the loop did not record as a miss, object frame (the
@@ -500,6 +530,7 @@ class SessionReplay:
                 end_threshold_pa=detector_config.end_threshold_pa, use_normals=use_normals),
             touches=len(touches), contacts=kinds.count("contact"), misses=kinds.count("miss"),
             realign=kinds.count("realign"), no_normal=kinds.count("no_normal"),
+            doubtful=sum(bool(getattr(t.quality, "doubtful", False)) for t in touches if t.kind == "contact"),
             same_press=kinds.count("same_press"), not_modelled=kinds.count("not_modelled"),
             recorded_contacts=recorded.count("contact"), n_contacts_fitted=gpis.n_contacts,
             notes=list(notes),

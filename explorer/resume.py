@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -101,10 +101,19 @@ def _touch_record(event, contacts_by_time) -> TouchOutcome:
         stand_tilt_rad=float(f.get("stand_tilt_rad", 0.0)), position_m=vector("position_m"),
         normal=vector("normal"), t_s=event.t_s, strategy=str(f.get("strategy", "")),
         press_t_s=None if f.get("press_t_s") is None else tuple(f["press_t_s"]))
+    if f.get("repress_t_s") is not None:
+        record.repress_t_s = float(f["repress_t_s"])
     free_space = vector("free_space_m")
     record.free_space_m = None if free_space is None else free_space.reshape(-1, 3)
     if record.kind == "contact":
         record.contact = contacts_by_time.get(event.t_s)
+    if isinstance(f.get("quality"), dict):
+        from explorer.contact import ContactQuality
+
+        known = {item.name for item in fields(ContactQuality)}
+        values = {k: tuple(v) if isinstance(v, list) else v for k, v in f["quality"].items() if k in known}
+        if "force_n" in values and "n_readings" in values:
+            record.quality = ContactQuality(**values)
     return record
 
 

@@ -269,6 +269,8 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
         touches=len(records), contacts=kinds.count("contact"), misses=kinds.count("miss"),
         unreachable=kinds.count("unreachable"), no_normal=kinds.count("no_normal"),
         realign=kinds.count("realign"), blocked=kinds.count("blocked"),
+        doubtful=sum(bool(getattr(r.quality, "doubtful", False)) for r in records if r.kind == "contact"),
+        repressed=sum(r.repress_t_s is not None for r in records),
         wall_time_s=wall_s, simulated_time_s=robot_time_s,
         phase_times_s=loop.times.as_dict(), evaluation_time_s=eval_s,
         completed=error is None, machine=f"{platform.machine()}, python {platform.python_version()}",

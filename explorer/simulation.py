@@ -103,7 +103,8 @@ def build_scene(object_name: str, robot_name: str = "armar3", seed: int = 0, gui
         sensor = SimulatedTactileSensor(config=sensor_config, seed=seed)
         world.add_step_listener(lambda _t: sensor.on_step(arm.pad_state()))
         sensor.open()
-        pad = PadCalibration(sensor.config.barometer.pad, 1.0 / pad_stiffness_n_per_m)
+        pad = PadCalibration(sensor.config.barometer.pad, 1.0 / pad_stiffness_n_per_m,
+                             spring_stiffness_nm_per_rad=spec.spring_stiffness_nm_per_rad)
         return SimScene(world, arm, sensor, ArmKinematics(spec), stand, model, pad, profile)
     except Exception:
         world.close()

@@ -117,6 +117,9 @@ class TouchOutcome:
     baseline_pa : float or None
         The detector's free-pad pressure at the contact start, pascals.
     quality : explorer.contact.ContactQuality or None
+    repress_t_s : float or None
+        A doubtful contact was pressed on from this time (``LoopConfig.repress_force_n``): it is
+        measured from the press's readings after it.
     """
 
     index: int
@@ -134,3 +137,4 @@ class TouchOutcome:
     free_space_m: np.ndarray | None = None
     baseline_pa: float | None = None
     quality: object | None = None
+    repress_t_s: float | None = None

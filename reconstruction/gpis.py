@@ -103,7 +103,8 @@ class GPIS:
         self._clear()
 
     # ------------------------------------------------------------------ observations
-    def fit(self, points: np.ndarray, normals: np.ndarray | None = None) -> "GPIS":
+    def fit(self, points: np.ndarray, normals: np.ndarray | None = None,
+            normal_noise: float | np.ndarray | None = None) -> "GPIS":
         """Replace all observations by these contacts and factor the system.
 
         Parameters
@@ -113,38 +114,54 @@ class GPIS:
         normals : (n, 3) float, optional
             Outward surface normals (normalised here; zero vectors are an error). Required when
             ``use_normals`` is True, ignored otherwise.
+        normal_noise : float or (n,) float, optional
+            Per-contact normal noise at least this large (NaN: the default rules), e.g. for a
+            contact whose normal is doubtful; None: the default rules for all.
         """
         points, normals = self._check_contacts(points, normals)
+        floor = _noise_floor(normal_noise, len(points))
         self._clear()
+        self._normal_noise_floor = floor
         self._choose_kernel(points)
         if not self.use_normals:
             prior_points, prior_values = self._inside_outside_samples(points)
             self._stage(prior_points, prior_values, None)
         self._stage(points, np.zeros(len(points)), normals)
+        self._normal_noise_floor = None
         self._contact_points.append(points)
+        self._contact_noise_floor.append(floor)
         if normals is not None:
             self._contact_normals.append(normals)
         self._factor_all()
         return self
 
-    def add(self, point: np.ndarray, normal: np.ndarray | None = None) -> "GPIS":
+    def add(self, point: np.ndarray, normal: np.ndarray | None = None,
+            normal_noise: float | np.ndarray | None = None) -> "GPIS":
         """Add one contact (or a few, as (k, 3) arrays) with a rank-4 update of the factor.
 
         Before any :meth:`fit`, the first call fits. Adding a contact outside ``bounds`` raises.
+        ``normal_noise`` (scalar or (k,), NaN for the default) raises the normal noise of these
+        contacts to at least that value (see :meth:`fit`); a refit keeps it.
         """
         points, normals = self._check_contacts(np.atleast_2d(point),
                                                None if normal is None else np.atleast_2d(normal))
+        floor = _noise_floor(normal_noise, len(points))
         if not self.n_contacts:
-            return self.fit(points, normals)
+            return self.fit(points, normals, floor)
         if self._needs_larger_radius(points):
             warnings.warn("contacts left the region that fixed the thin-plate radius; refitting "
                           "with a larger radius (pass bounds= to avoid this)", RuntimeWarning,
                           stacklevel=2)
             all_points = np.vstack([self.contact_points, points])
             all_normals = None if normals is None else np.vstack([self.contact_normals, normals])
-            return self.fit(all_points, all_normals)
-        self._append(points, np.zeros(len(points)), normals)
+            return self.fit(all_points, all_normals, np.concatenate(self._contact_noise_floor + [floor]))
+        self._normal_noise_floor = floor
+        try:
+            self._append(points, np.zeros(len(points)), normals)
+        finally:
+            self._normal_noise_floor = None
         self._contact_points.append(points)
+        self._contact_noise_floor.append(floor)
         if normals is not None:
             self._contact_normals.append(normals)
         return self
@@ -339,6 +356,8 @@ class GPIS:
             self.kernel = None
         self._contact_points: list[np.ndarray] = []
         self._contact_normals: list[np.ndarray] = []
+        self._contact_noise_floor: list[np.ndarray] = []  # per contact, NaN: the default rules
+        self._normal_noise_floor: np.ndarray | None = None  # of the contacts being staged
         self._obs_points = np.zeros((0, 3))
         self._row_point = np.zeros(0, dtype=int)
         self._row_comp = np.zeros(0, dtype=int)
@@ -402,11 +421,15 @@ class GPIS:
     def _normal_noise_per_contact(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """(k,) normal noise of new contacts: ``opposing_normal_noise`` for those with a contact
         within ``opposing_radius_m`` whose normal opposes theirs (cosine < -0.5: the two sides of
-        a thin wall or a sharp tip), ``normal_noise`` otherwise.
+        a thin wall or a sharp tip), ``normal_noise`` otherwise; a contact given a noise floor
+        (``add``/``fit`` ``normal_noise``) has at least that and is never tightened.
 
         Contacts already in the factor keep the noise they were added with until the next fit.
         """
         out = np.full(len(points), self.normal_noise)
+        floor = self._normal_noise_floor
+        if floor is not None and len(floor) == len(points):
+            out = np.fmax(out, floor)
         if self.opposing_normal_noise is None:
             return out
         from scipy.spatial import cKDTree
@@ -415,7 +438,8 @@ class GPIS:
         others_n = np.vstack([self.contact_normals, normals]) if self._contact_normals else normals
         tree = cKDTree(others_p)
         for i, near in enumerate(tree.query_ball_point(points, self.opposing_radius_m)):
-            if near and np.min(others_n[near] @ normals[i]) < -0.5:
+            doubted = floor is not None and len(floor) == len(points) and np.isfinite(floor[i])
+            if near and np.min(others_n[near] @ normals[i]) < -0.5 and not doubted:
                 out[i] = self.opposing_normal_noise
         return out
 
@@ -588,6 +612,16 @@ class VarianceTracker:
 
 
 #: Attributes an append replaces (never mutates in place), restored when an append fails.
+def _noise_floor(normal_noise, n: int) -> np.ndarray:
+    """(n,) per-contact normal-noise floor from a scalar, an (n,) array or None (NaN: none)."""
+    if normal_noise is None:
+        return np.full(n, np.nan)
+    floor = np.broadcast_to(np.asarray(normal_noise, float), (n,)).copy()
+    if np.any(floor[np.isfinite(floor)] <= 0) or np.any(np.isinf(floor)):
+        raise ValueError(f"normal_noise must be positive finite standard deviations (NaN: default), got {normal_noise!r}")
+    return floor
+
+
 _OBSERVATION_STATE = ("_obs_points", "_row_point", "_row_comp", "_y", "_noise_var", "_z", "_alpha",
                       "_factor", "_lu", "_generation")
 

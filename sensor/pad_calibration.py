@@ -19,6 +19,11 @@ from sensor.sim.pad_response import PadResponse
 #: Contact stiffness of the 3.7 mm polyurethane pad: a soft cast pad (shore 00, about 0.04 MPa)
 #: over the 18 x 18 mm face compresses about 0.3 mm per newton.
 PAD_STIFFNESS_N_PER_M = 3.0e3
+#: Bending stiffness of the fingertip's coil spring per axis, N m/rad (the value of
+#: ``robots.fingertip.DEFAULT_SPRING_STIFFNESS_NM_PER_RAD``; sensor does not import robots).
+SPRING_STIFFNESS_NM_PER_RAD = 0.02
+#: Half the side of the square 18 x 18 mm pad face, metres.
+PAD_HALF_WIDTH_M = 0.009
 
 
 class PadForceModel(Protocol):
@@ -43,15 +48,26 @@ class PadCalibration:
         surface, so the surface point is moved back out by that, metres per newton.
     alignment : ImuAlignment
         How the IMU quaternion maps to the pad's orientation (identity in simulation).
+    spring_stiffness_nm_per_rad : float
+        Bending stiffness of the spring the pad turns on, per axis, N m/rad: the spring's deflection
+        times this is the contact's torque about the pivot, which says where on the pad it pressed.
+    half_width_m : float
+        Half the side of the square pad face, metres.
     """
 
     force_model: PadForceModel = field(default_factory=PadResponse)
     compliance_m_per_n: float = 1.0 / PAD_STIFFNESS_N_PER_M
     alignment: ImuAlignment = field(default_factory=ImuAlignment)
+    spring_stiffness_nm_per_rad: float = SPRING_STIFFNESS_NM_PER_RAD
+    half_width_m: float = PAD_HALF_WIDTH_M
 
     def __post_init__(self):
         if not (np.isfinite(self.compliance_m_per_n) and self.compliance_m_per_n >= 0.0):
             raise ValueError(f"compliance_m_per_n must be finite and >= 0, got {self.compliance_m_per_n}")
+        for name in ("spring_stiffness_nm_per_rad", "half_width_m"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0.0):
+                raise ValueError(f"{name} must be finite and > 0, got {value}")
 
     def surface_point(self, pad_face_m: np.ndarray, normal: np.ndarray, force_n: float) -> np.ndarray:
         """(3,) surface point: the pad face moved out along the outward ``normal`` by the compression."""
@@ -64,7 +80,9 @@ class PadCalibration:
                                                                "lag_time_constant_s") if hasattr(model, name)}
         return dict(compliance_m_per_n=float(self.compliance_m_per_n), force_model=force,
                     body_in_imu_wxyz=[float(v) for v in self.alignment.body_in_imu_wxyz],
-                    reference_in_world_wxyz=[float(v) for v in self.alignment.reference_in_world_wxyz])
+                    reference_in_world_wxyz=[float(v) for v in self.alignment.reference_in_world_wxyz],
+                    spring_stiffness_nm_per_rad=float(self.spring_stiffness_nm_per_rad),
+                    half_width_m=float(self.half_width_m))
 
     @classmethod
     def from_dict(cls, data: dict) -> "PadCalibration":
@@ -74,4 +92,6 @@ class PadCalibration:
             tuple(float(v) for v in data.get("body_in_imu_wxyz", nominal.alignment.body_in_imu_wxyz)),
             tuple(float(v) for v in data.get("reference_in_world_wxyz", nominal.alignment.reference_in_world_wxyz)))
         return cls(PadResponse(**data.get("force_model", {})),
-                   float(data.get("compliance_m_per_n", nominal.compliance_m_per_n)), alignment)
+                   float(data.get("compliance_m_per_n", nominal.compliance_m_per_n)), alignment,
+                   float(data.get("spring_stiffness_nm_per_rad", nominal.spring_stiffness_nm_per_rad)),
+                   float(data.get("half_width_m", nominal.half_width_m)))

@@ -4,7 +4,8 @@ The "arm" has three joints that are the pad position itself (world frame, metres
 kinematics are the identity and the spring pivot is the pad. The pad is position controlled and
 may sink into the sphere; the force is ``stiffness x depth``, the barometer reads the pad model's
 pressure rise for that force, and the IMU reports the pad's +z axis pointing at the sphere centre
-(the spring has aligned it). A contact measured with a matching :class:`PadCalibration` is
+(the spring has aligned it). A contact measured with a matching :class:`PadCalibration` (a point
+pad: a spring so soft that no torque moves the contact off the pad centre, :func:`point_pad`) is
 therefore exactly on the sphere with the radial normal: tests can assert to 1e-9 m.
 """
 from __future__ import annotations
@@ -21,7 +22,7 @@ from explorer.strategies import ExplorationState, TouchStrategy
 from explorer.touch import Touch
 from robots.interface import GuardedMoveResult, MoveNotReachedError, Robot
 from sensor.interface import TactileSensor
-from sensor.pad_calibration import PAD_STIFFNESS_N_PER_M
+from sensor.pad_calibration import PAD_STIFFNESS_N_PER_M, PadCalibration
 from sensor.reading import Reading
 from sensor.sim.pad_response import PadResponse
 from common.rotations import wxyz_from_rotation
@@ -175,6 +176,12 @@ class ScriptedStrategy(TouchStrategy):
         self.remaining = [t for t in self.remaining if t is not touch]
 
 
+def point_pad() -> PadCalibration:
+    """The fake's pad: nominal force model and compliance, and a spring too soft to move the
+    centre of pressure (``explorer.contact.pad_load``) off the pad centre."""
+    return PadCalibration(spring_stiffness_nm_per_rad=1e-12)
+
+
 def sphere_rig(radius_m: float = 0.04, centre_m=(0.0, 0.5, 1.0)):
     """(world, Rig) of a fake arm and sensor at a sphere held by a fixed stand at ``centre_m``."""
     from explorer.rig import Rig
@@ -184,5 +191,5 @@ def sphere_rig(radius_m: float = 0.04, centre_m=(0.0, 0.5, 1.0)):
     stand = FixedStand(world.centre_m)
     prior = ObjectPrior(np.zeros(3), np.full(3, 1.2 * radius_m))
     rig = Rig(FakeRobot(world), FakeSensor(world), FakeKinematics(), stand, prior, None,
-              dict(robot="fake", sensor="fake", object="virtual sphere", backend="in memory"))
+              dict(robot="fake", sensor="fake", object="virtual sphere", backend="in memory"), point_pad())
     return world, rig

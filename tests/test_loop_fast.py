@@ -1,8 +1,9 @@
 """The exploration loop's logic on in-memory fakes (tests/fakes.py): no simulator, milliseconds.
 
 A scripted strategy asks for two head-on touches, an oblique one (the loop must set it aside and
-repeat it along the measured normal), one beside the sphere (a miss that sweeps free space) and
-one the planner cannot reach.
+repeat it along the measured normal: the point pad's contacts are all doubtful when oblique, and
+the realign budget is the whole budget), one beside the sphere (a miss that sweeps free space)
+and one the planner cannot reach.
 """
 import numpy as np
 import pytest
@@ -35,7 +36,8 @@ def finished(tmp_path):
     gpis = GPIS(bounds=rig.prior.bounds())
     recorder = RunRecorder(tmp_path, dict(rig.description, seed=0, configuration={}))
     loop = ExplorationLoop(rig, planner, ScriptedStrategy(scripted_touches()), gpis,
-                           LoopConfig(touches=6, proposal_rounds=1), recorder)
+                           LoopConfig(touches=6, proposal_rounds=1, max_realign_fraction=1.0,
+                                      doubt_rim_margin_m=1.0, repress_force_n=0.0), recorder)
     records = loop.run()
     recorder.close()
     return loop, records, tmp_path

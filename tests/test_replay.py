@@ -138,12 +138,14 @@ def test_the_gpis_settings_are_applied(session, recorded_replay):
 
 
 def test_replay_with_the_recorded_settings_keeps_the_realign_repeats_the_loop_kept(tmp_path):
-    """A strict realign rule sets most first contacts aside; the repeats (strategy ``realign``) are
-    kept by the loop whatever their angle, and replay applies the rule as the loop did."""
+    """A strict realign rule (every oblique contact doubtful, the whole budget for realigns) sets
+    most first contacts aside; the repeats (strategy ``realign``) are kept by the loop whatever
+    their angle, and replay applies the rule as the loop did."""
     from explorer.loop import LoopConfig
 
-    run = explore(RunSettings(object="sphere", touches=4, eval_every=0, mesh_resolution=24,
-                              loop=LoopConfig(realign_angle_rad=float(np.radians(0.5)))), tmp_path)
+    strict = LoopConfig(realign_angle_rad=float(np.radians(0.5)), max_realign_fraction=1.0,
+                        doubt_rim_margin_m=1.0, doubt_approach_angle_rad=float(np.radians(0.5)))
+    run = explore(RunSettings(object="sphere", touches=4, eval_every=0, mesh_resolution=24, loop=strict), tmp_path)
     kinds = [r.kind for r in run.records]
     assert "realign" in kinds, kinds
     result = SessionReplay(run.out_dir).run(ReplaySettings(figures=False))

@@ -1,0 +1,137 @@
+"""Contact errors against the ground truth, by the local shape under the pad (issue 11).
+
+Offline analysis only (the loop never sees the truth): for each recorded contact, the true closest
+surface point and its face normal give the position and normal errors (as ``metrics.json`` computes
+them), and two measures of the shape under the 18 mm pad say why a contact may be off:
+
+* ``edge_distance_m``: distance from the true closest point to the nearest sharp feature edge of
+  the truth (dihedral angle > 30 deg, :attr:`objects.ObjectModel.sharp_edges`);
+* ``normal_spread_rad``: the largest angle between the true normal there and the true normals
+  within the pad's half width of it (faces turned more than 100 deg away, the far side of a thin
+  wall, left out): 0 on a plane, about ``w / r`` on a sphere of radius ``r`` and the full turn on
+  an edge or a rim.
+
+``scripts/contact_quality.py`` prints these errors binned by both measures for recorded runs.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Half the width of the 18 mm pad, metres: the neighbourhood the pad rests on.
+PAD_HALF_WIDTH_M = 0.009
+#: Edge-distance bins (metres) and normal-spread bins (radians) of :func:`binned_errors`.
+EDGE_BINS_M = (0.0, 0.003, 0.006, 0.009, 0.015, np.inf)
+SPREAD_BINS_RAD = tuple(np.radians([0.0, 10.0, 25.0, 45.0, 70.0, 181.0]))
+
+
+@dataclass(frozen=True)
+class ContactTruth:
+    """Per-contact errors and local shape, object frame.
+
+    Attributes
+    ----------
+    position_error_m : (n,) float
+        Distance of each contact to the true surface, metres.
+    normal_error_rad : (n,) float
+        Angle between each measured normal and the true normal of the closest face, radians.
+    edge_distance_m : (n,) float
+        Distance of the true closest point to the nearest sharp edge (inf without sharp edges), metres.
+    normal_spread_rad : (n,) float
+        Largest turn of the true normal within ``PAD_HALF_WIDTH_M`` of the true closest point, radians.
+    closest_m : (n, 3) float
+        True closest surface points, metres.
+    true_normal : (n, 3) float
+        True outward normals there (of the closest face).
+    """
+
+    position_error_m: np.ndarray
+    normal_error_rad: np.ndarray
+    edge_distance_m: np.ndarray
+    normal_spread_rad: np.ndarray
+    closest_m: np.ndarray
+    true_normal: np.ndarray
+
+
+def contact_truth(points: np.ndarray, normals: np.ndarray, mesh, sharp_edges: np.ndarray,
+                  samples: int = 40_000, seed: int = 0) -> ContactTruth:
+    """Errors and local shape of contacts on a known mesh.
+
+    Parameters
+    ----------
+    points, normals : (n, 3) float
+        Contacts (surface points, outward unit normals), object frame, metres.
+    mesh : trimesh.Trimesh
+        The truth, object frame, metres, outward normals.
+    sharp_edges : (k, 2, 3) float
+        Sharp edges as segments (``ObjectModel.sharp_edges``), metres.
+    samples : int
+        Area-uniform surface samples used for the normal spread.
+    seed : int
+        Seed of those samples.
+    """
+    import trimesh
+    from scipy.spatial import cKDTree
+
+    from objects.proximity import MeshProximity
+
+    points = np.asarray(points, float).reshape(-1, 3)
+    normals = np.asarray(normals, float).reshape(-1, 3)
+    closest, distance, face = MeshProximity(mesh).query(points)
+    true_normal = mesh.face_normals[face]
+    cosine = np.clip(np.sum(normals * true_normal, axis=1), -1.0, 1.0)
+    sample_points, sample_faces = trimesh.sample.sample_surface_even(mesh, samples, seed=seed)
+    sample_normals = mesh.face_normals[sample_faces]
+    tree = cKDTree(sample_points)
+    spread = np.zeros(len(points))
+    for i, near in enumerate(tree.query_ball_point(closest, PAD_HALF_WIDTH_M)):
+        if near:
+            cosines = sample_normals[near] @ true_normal[i]
+            cosines = cosines[cosines > np.cos(np.radians(100.0))]
+            spread[i] = float(np.arccos(np.clip(cosines.min(), -1.0, 1.0))) if len(cosines) else 0.0
+    return ContactTruth(distance, np.arccos(cosine), segment_distance(closest, sharp_edges), spread,
+                        closest, true_normal)
+
+
+def segment_distance(points: np.ndarray, segments: np.ndarray) -> np.ndarray:
+    """(n,) distance of each of (n, 3) points to the nearest of (k, 2, 3) segments (inf for k = 0)."""
+    points = np.asarray(points, float).reshape(-1, 3)
+    segments = np.asarray(segments, float).reshape(-1, 2, 3)
+    if not len(segments):
+        return np.full(len(points), np.inf)
+    a, b = segments[:, 0], segments[:, 1]
+    ab = b - a
+    length2 = np.maximum(np.einsum("kd,kd->k", ab, ab), 1e-18)
+    out = np.empty(len(points))
+    for i, p in enumerate(points):
+        t = np.clip(np.einsum("kd,kd->k", p - a, ab) / length2, 0.0, 1.0)
+        out[i] = float(np.min(np.linalg.norm(a + t[:, None] * ab - p, axis=1)))
+    return out
+
+
+def binned_errors(truth: ContactTruth, by: str, flags: np.ndarray | None = None) -> list[dict]:
+    """Rows of errors per bin of ``by`` (``"edge"``: edge distance, ``"spread"``: normal spread).
+
+    Each row: ``bin`` (label, mm or deg), ``n``, ``position_rms_mm``, ``normal_mean_deg`` and, with
+    ``flags`` ((n,) bool, e.g. the pipeline's doubtful flag), ``flagged`` (the fraction flagged).
+    """
+    if by == "edge":
+        values, edges, scale, unit = truth.edge_distance_m, EDGE_BINS_M, 1e3, "mm"
+    elif by == "spread":
+        values, edges, scale, unit = truth.normal_spread_rad, SPREAD_BINS_RAD, np.degrees(1.0), "deg"
+    else:
+        raise ValueError(f"by must be 'edge' or 'spread', got {by!r}")
+    rows = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        inside = (values >= lo) & (values < hi)
+        label = f"{lo * scale:.0f}-{hi * scale:.0f} {unit}" if np.isfinite(hi) and hi * scale < 180 \
+            else f">= {lo * scale:.0f} {unit}"
+        row = dict(bin=label, n=int(inside.sum()))
+        if inside.any():
+            row.update(position_rms_mm=float(1e3 * np.sqrt(np.mean(truth.position_error_m[inside] ** 2))),
+                       normal_mean_deg=float(np.degrees(truth.normal_error_rad[inside]).mean()))
+            if flags is not None:
+                row["flagged"] = float(np.mean(np.asarray(flags, bool)[inside]))
+        rows.append(row)
+    return rows

@@ -1,0 +1,205 @@
+"""``python -m scripts.contact_quality RUN_DIR [RUN_DIR ...]``: contact errors against the truth, by
+the shape under the pad (issue 11).
+
+For every contact a run recorded (or, with ``--replay``, measured again from the session by the
+current pipeline), the distance to the true surface and the angle to the true normal, binned by the
+distance of the true closest point to the nearest sharp edge and by the turn of the true normal
+under the pad (:mod:`explorer.contact_truth`). Also the contacts the pipeline flagged as doubtful
+and the realign touches. Simulated runs only (the truth is the run's object).
+
+Options: ``--replay recorded|pad-centre|current`` measures the contacts again from the session, as
+recorded, at the pad-face centre (the pipeline before issue 11), or with the current pipeline and
+the default doubtful-contact and realign rules (a session recorded before issue 11 then keeps its
+touch sequence: approximate); ``--csv FILE`` writes one row per contact; ``--json FILE`` the summary.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+
+
+def parse_args(argv=None):
+    parser = argparse.ArgumentParser(prog="python -m scripts.contact_quality", description=__doc__.split("\n\n")[0])
+    parser.add_argument("runs", nargs="+", type=Path, help="run directories (each with session/)")
+    parser.add_argument("--replay", choices=("recorded", "pad-centre", "current"),
+                        help="measure the contacts again from the session with this pipeline")
+    parser.add_argument("--csv", type=Path, help="write one row per contact here")
+    parser.add_argument("--json", type=Path, help="write the summary here")
+    args = parser.parse_args(argv)
+    for run in args.runs:
+        if not (run / "session" / "metadata.json").is_file() and not (run / "metadata.json").is_file():
+            parser.error(f"{run}: not a run directory (no session/metadata.json); give the --out of a run")
+    return args
+
+
+def run_contacts(run: Path, replay: str | None) -> tuple[str, list[dict]]:
+    """The object name and one dict per pressed touch with a contact (kind, position, normal, quality)."""
+    from explorer.session import SessionReader
+
+    session = run / "session" if (run / "session").is_dir() else run
+    metadata = SessionReader(session).metadata
+    if replay:
+        from explorer.replay import SessionReplay
+
+        from explorer.contact import ContactPipeline, DoubtRule
+        from explorer.loop import LoopConfig
+
+        replayer = SessionReplay(session)
+        if replay != "recorded":
+            current = replay == "current"
+            replayer.legacy_contacts = not current
+            replayer.pipeline = ContactPipeline(replayer.kinematics, replayer.pad, replayer.settling,
+                                                centre_of_pressure=current,
+                                                doubt=LoopConfig().doubt_rule() if current else DoubtRule(-np.inf))
+        touches = replayer.run(_settings())
+        rows = [dict(index=t.index, kind=t.kind, strategy=t.strategy, position_m=t.position_m, normal=t.normal,
+                     quality=_quality_dict(t.quality)) for t in touches.touches if t.position_m is not None]
+    else:
+        rows = []
+        for event in SessionReader(session).events():
+            fields = event.fields
+            if fields.get("position_m") is None or "result" not in fields:
+                continue
+            rows.append(dict(index=fields.get("index"), kind=fields["result"], strategy=fields.get("strategy", ""),
+                             position_m=np.asarray(fields["position_m"], float),
+                             normal=np.asarray(fields["normal"], float), quality=fields.get("quality") or {}))
+    return str(metadata.get("object")), rows
+
+
+def _settings():
+    from explorer.replay import ReplaySettings
+
+    return ReplaySettings(figures=False)
+
+
+def _quality_dict(quality) -> dict:
+    if quality is None:
+        return {}
+    from dataclasses import asdict
+
+    return {k: v for k, v in asdict(quality).items() if v is not None}
+
+
+def analyse(object_name: str, rows: list[dict]):
+    """Per-contact table (list of dicts) with the truth errors and local shape added."""
+    import objects
+    from explorer.contact_truth import contact_truth
+
+    if not rows:
+        return []
+    model = objects.load(object_name)
+    truth = contact_truth(np.array([r["position_m"] for r in rows]), np.array([r["normal"] for r in rows]),
+                          model.mesh, model.sharp_edges)
+    out = []
+    for i, row in enumerate(rows):
+        q = row["quality"]
+        out.append(dict(object=object_name, index=row["index"], kind=row["kind"], strategy=row["strategy"],
+                        position_error_mm=1e3 * truth.position_error_m[i],
+                        normal_error_deg=float(np.degrees(truth.normal_error_rad[i])),
+                        edge_distance_mm=1e3 * truth.edge_distance_m[i],
+                        normal_spread_deg=float(np.degrees(truth.normal_spread_rad[i])),
+                        doubtful=bool(q.get("doubtful", False)),
+                        tilt_deg=_deg(q.get("tilt_rad")), rim_distance_mm=_mm(q.get("rim_distance_m")),
+                        approach_deg=_deg(None if q.get("approach_cosine") is None
+                                          else float(np.arccos(np.clip(q["approach_cosine"], -1, 1)))),
+                        force_n=q.get("force_n")))
+    return out
+
+
+def _deg(value):
+    return None if value is None else float(np.degrees(value))
+
+
+def _mm(value):
+    return None if value is None else 1e3 * float(value)
+
+
+def summary(table: list[dict]) -> dict:
+    """Errors of the contacts used, the set-aside ones, and per bin."""
+    used = [r for r in table if r["kind"] == "contact"]
+    out = dict(contacts=len(used), realign=sum(r["kind"] == "realign" for r in table))
+    if used:
+        pos = np.array([r["position_error_mm"] for r in used])
+        ang = np.array([r["normal_error_deg"] for r in used])
+        doubtful = np.array([r["doubtful"] for r in used])
+        out.update(position_rms_mm=float(np.sqrt(np.mean(pos ** 2))), normal_mean_deg=float(ang.mean()),
+                   doubtful_fraction=float(doubtful.mean()))
+        for name, mask in (("trusted", ~doubtful), ("doubtful", doubtful)):
+            if mask.any():
+                out[f"{name}_position_rms_mm"] = float(np.sqrt(np.mean(pos[mask] ** 2)))
+                out[f"{name}_normal_mean_deg"] = float(ang[mask].mean())
+    return out
+
+
+def binned(table: list[dict], key: str, edges) -> list[dict]:
+    used = [r for r in table if r["kind"] == "contact"]
+    rows = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        inside = [r for r in used if lo <= r[key] < hi]
+        row = dict(bin=f"{lo:g}-{hi:g}" if np.isfinite(hi) else f">= {lo:g}", n=len(inside))
+        if inside:
+            row.update(position_rms_mm=float(np.sqrt(np.mean([r["position_error_mm"] ** 2 for r in inside]))),
+                       normal_mean_deg=float(np.mean([r["normal_error_deg"] for r in inside])),
+                       doubtful=float(np.mean([r["doubtful"] for r in inside])))
+        rows.append(row)
+    return rows
+
+
+def _print_bins(title: str, rows: list[dict]) -> None:
+    print(f"\n{title}\n| bin | contacts | position RMS mm | normal mean deg | doubtful |\n|---|---|---|---|---|")
+    for r in rows:
+        if r["n"]:
+            print(f"| {r['bin']} | {r['n']} | {r['position_rms_mm']:.2f} | {r['normal_mean_deg']:.1f} | "
+                  f"{r['doubtful']:.2f} |")
+        else:
+            print(f"| {r['bin']} | 0 | | | |")
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    table = []
+    per_run = {}
+    print("| run | object | contacts | realign | position RMS mm | normal mean deg | doubtful | "
+          "trusted: pos / normal | doubtful: pos / normal |\n|---|---|---|---|---|---|---|---|---|")
+    for run in args.runs:
+        name, rows = run_contacts(run, args.replay)
+        rows_table = analyse(name, rows)
+        table += rows_table
+        s = summary(rows_table)
+        per_run[str(run)] = dict(object=name, **s)
+        if not s.get("contacts"):
+            print(f"| {run.name} | {name} | 0 | {s['realign']} | | | | | |")
+            continue
+        split = [f"{s[f'{k}_position_rms_mm']:.2f} / {s[f'{k}_normal_mean_deg']:.1f}"
+                 if f"{k}_position_rms_mm" in s else "-" for k in ("trusted", "doubtful")]
+        print(f"| {run.name} | {name} | {s['contacts']} | {s['realign']} | {s['position_rms_mm']:.2f} | "
+              f"{s['normal_mean_deg']:.1f} | {s['doubtful_fraction']:.2f} | {split[0]} | {split[1]} |")
+    total = summary(table)
+    if total.get("contacts"):
+        print(f"\nall: {total['contacts']} contacts, {total['realign']} realign, position RMS "
+              f"{total['position_rms_mm']:.2f} mm, normal mean {total['normal_mean_deg']:.1f} deg, "
+              f"doubtful {total['doubtful_fraction']:.2f}")
+    edge = binned(table, "edge_distance_mm", (0, 3, 6, 9, 15, np.inf))
+    spread = binned(table, "normal_spread_deg", (0, 10, 25, 45, 70, 181))
+    _print_bins("by distance of the true closest point to a sharp edge (mm)", edge)
+    _print_bins("by turn of the true normal within 9 mm (deg)", spread)
+    if args.csv:
+        import csv
+
+        with open(args.csv, "w", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=list(table[0]) if table else ["object"])
+            writer.writeheader()
+            writer.writerows(table)
+    if args.json:
+        args.json.write_text(json.dumps(dict(runs=per_run, all=total, by_edge_distance_mm=edge,
+                                             by_normal_spread_deg=spread), indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
