@@ -128,17 +128,50 @@ class SimulatedTactileSensor(TactileSensor):
         if not self.is_open:
             return
         _check_pad_state(pad_state)
-        if self._last_t is not None and not pad_state.t_s > self._last_t:
-            raise ValueError(f"pad state time {pad_state.t_s} s does not increase past {self._last_t} s")
-        self._last_t = pad_state.t_s
+        self._advance_time(pad_state.t_s)
         imu_sample = self._imu.step(pad_state)
         pressure_sample = self._barometer.step(pad_state)
+        self._queue(pad_state.t_s, imu_sample, pressure_sample)
+
+    def needs_pad_state(self, t_s: float) -> bool:
+        """Whether the step at ``t_s`` needs the whole pad state (:meth:`on_step`): an IMU sample
+        falls due then or the IMU keeps a latency history. Where False, :meth:`on_force_step`
+        with the pad's normal force gives the same readings; the PyBullet glue uses it to skip
+        the pose queries on the steps between IMU samples."""
+        return self.is_open and self._imu.needs_pad_state(t_s)
+
+    def on_force_step(self, t_s: float, normal_force_n: float) -> None:
+        """:meth:`on_step` on a step where :meth:`needs_pad_state` is False: only the barometer
+        reads the pad then, and it reads the normal force (N) alone.
+
+        Raises
+        ------
+        ValueError
+            If time does not increase, the force is not finite and >= 0, or the IMU needs the
+            whole pad state at ``t_s``.
+        """
+        if not self.is_open:
+            return
+        if not (math.isfinite(t_s) and math.isfinite(normal_force_n) and normal_force_n >= 0.0):
+            raise ValueError(f"need a finite time and a finite normal force >= 0 N, got {t_s}, {normal_force_n}")
+        if self._imu.needs_pad_state(t_s):
+            raise ValueError(f"the IMU samples at {t_s} s: call on_step(pad_state) there")
+        self._advance_time(t_s)
+        self._queue(t_s, None, self._barometer.step_force(t_s, normal_force_n))
+
+    def _advance_time(self, t_s: float) -> None:
+        if self._last_t is not None and not t_s > self._last_t:
+            raise ValueError(f"pad state time {t_s} s does not increase past {self._last_t} s")
+        self._last_t = t_s
+
+    def _queue(self, t_s: float, imu_sample: ImuSample | None, pressure_sample: PressureSample | None) -> None:
+        """A Reading at ``t_s`` if either chip produced a sample."""
         if imu_sample is None and pressure_sample is None:
             return
         self._imu_sample = imu_sample or self._imu_sample
         self._pressure_sample = pressure_sample or self._pressure_sample
         reading = Reading(
-            t_s=pad_state.t_s,
+            t_s=t_s,
             pressure_pa=self._pressure_sample.pressure_pa,
             quat_wxyz=self._imu_sample.quat_wxyz,
             lin_acc_mps2=self._imu_sample.lin_acc_mps2,

@@ -49,7 +49,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from common.pad_state import PadState
-from common.rotations import rotation_from_wxyz, wxyz_from_rotation
+from common.rotations import (quat_from_rotvec_wxyz, quat_multiply_wxyz, quat_normalised_wxyz,
+                              quat_rotate_inverse_wxyz, wxyz_from_rotation)
 from sensor.sim.sampling import SampleClock
 
 STANDARD_GRAVITY_MPS2 = 9.80665
@@ -191,8 +192,9 @@ class ImuSample:
 class SimulatedBNO055:
     """Fused IMU outputs at the fusion rate, from the true pad pose and velocity.
 
-    Call :meth:`step` after every physics step; it returns an :class:`ImuSample` on the steps where
-    a fusion output falls due, else None. Linear acceleration is the mean acceleration since the
+    Call :meth:`step` after every physics step (or at least on the steps where
+    :meth:`needs_pad_state` is True: the others change nothing); it returns an :class:`ImuSample`
+    on the steps where a fusion output falls due, else None. Linear acceleration is the mean acceleration since the
     previous sample (finite difference of the true velocity), so the first sample reports zero.
 
     Parameters
@@ -217,11 +219,17 @@ class SimulatedBNO055:
         self._accel_bias_mps2 = noise.accel_bias_std_mps2 * rng.standard_normal(3)
         self._tilt_bias_rad = noise.tilt_bias_std_rad * rng.standard_normal(2)
         self.mounting = Rotation.from_rotvec(noise.mounting_misalignment_std_rad * rng.standard_normal(3))
+        self._mounting_wxyz = tuple(float(v) for v in wxyz_from_rotation(self.mounting))
         # Drawn last and only when on, so that profiles without it keep their earlier random streams.
         self._yaw_bias_rad = noise.heading_offset_std_rad * rng.standard_normal() if noise.heading_offset_std_rad else 0.0
         self._history: deque[PadState] = deque()
         self._last_t: float | None = None
         self._last_velocity_mps: np.ndarray | None = None
+
+    def needs_pad_state(self, t_s: float) -> bool:
+        """Whether :meth:`step` must see the pad's state at ``t_s``: a sample falls due then, or the
+        latency history keeps every step. Where False, leaving the step out changes nothing."""
+        return self.config.latency_s > 0.0 or self._clock.would_be_due(t_s)
 
     def step(self, pad_state: PadState) -> ImuSample | None:
         """Advance to ``pad_state.t_s``; return a fused output if one is due."""
@@ -235,6 +243,8 @@ class SimulatedBNO055:
         return self._measure(self._history[0] if self.config.latency_s > 0.0 else pad_state, now)
 
     def _measure(self, pad_state: PadState, t: float) -> ImuSample:
+        # Plain-float quaternion algebra (common.rotations); the same compositions as scipy's
+        # Rotation (tests/test_sensor_sim_bno055.py compares the two), a sample in microseconds.
         velocity = np.asarray(pad_state.lin_vel_mps, dtype=float)
         if self._last_t is None:
             acceleration_world = np.zeros(3)
@@ -245,15 +255,20 @@ class SimulatedBNO055:
         self._last_t = t
         self._last_velocity_mps = velocity
 
-        chip_rotation = rotation_from_wxyz(pad_state.quat_wxyz) * self.mounting
-        measured_rotation = self._orientation_error_world() * chip_rotation * self._orientation_error_body()
-        up = np.array([0.0, 0.0, self.config.gravity_mps2])
-        specific_force = chip_rotation.inv().apply(acceleration_world + up)
+        chip = quat_multiply_wxyz(quat_normalised_wxyz(pad_state.quat_wxyz), self._mounting_wxyz)
+        error_world = quat_from_rotvec_wxyz(float(self._tilt_bias_rad[0]), float(self._tilt_bias_rad[1]),
+                                            float(self._yaw_bias_rad))
+        bx, by, bz = self.config.noise.orientation_white_std_rad * self._rng.standard_normal(3)
+        measured = quat_multiply_wxyz(quat_multiply_wxyz(error_world, chip),
+                                      quat_from_rotvec_wxyz(float(bx), float(by), float(bz)))
+        g = self.config.gravity_mps2
+        ax, ay, az = acceleration_world
+        specific_force = np.array(quat_rotate_inverse_wxyz(chip, (float(ax), float(ay), float(az) + g)))
         specific_force += self._accel_bias_mps2 + self.config.accel_noise_std_mps2 * self._rng.standard_normal(3)
-        gravity = measured_rotation.inv().apply(up)
+        gravity = np.array(quat_rotate_inverse_wxyz(measured, (0.0, 0.0, g)))
         lin_acc = specific_force - gravity
 
-        quat = wxyz_from_rotation(measured_rotation)
+        quat = np.array(measured)
         if np.dot(quat, pad_state.quat_wxyz) < 0.0:
             quat = -quat  # keep the caller's hemisphere so the stream has no sign jumps
         if self.config.quantise:
@@ -269,9 +284,3 @@ class SimulatedBNO055:
         keep = math.exp(-dt / noise.tilt_bias_time_constant_s)
         self._tilt_bias_rad = (keep * self._tilt_bias_rad
                                + noise.tilt_bias_std_rad * math.sqrt(1.0 - keep * keep) * self._rng.standard_normal(2))
-
-    def _orientation_error_world(self) -> Rotation:
-        return Rotation.from_rotvec([self._tilt_bias_rad[0], self._tilt_bias_rad[1], self._yaw_bias_rad])
-
-    def _orientation_error_body(self) -> Rotation:
-        return Rotation.from_rotvec(self.config.noise.orientation_white_std_rad * self._rng.standard_normal(3))
