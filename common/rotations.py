@@ -153,7 +153,7 @@ def quat_from_rotvec_wxyz(x: float, y: float, z: float) -> tuple[float, float, f
 
 def quat_normalised_wxyz(q) -> tuple[float, float, float, float]:
     """(w, x, y, z) divided by its norm, as floats."""
-    w, x, y, z = (float(v) for v in q)
+    w, x, y, z = q.tolist() if isinstance(q, np.ndarray) else (float(v) for v in q)
     norm = (w * w + x * x + y * y + z * z) ** 0.5
     return (w / norm, x / norm, y / norm, z / norm)
 

@@ -222,16 +222,18 @@ class SimulatedTactileSensor(TactileSensor):
 
 
 def _check_pad_state(pad_state: PadState) -> None:
+    # plain floats: this runs on every IMU sample step
     if not math.isfinite(pad_state.t_s):
         raise ValueError(f"pad state time must be finite, got {pad_state.t_s}")
     quat = np.asarray(pad_state.quat_wxyz, dtype=float)
-    if quat.shape != (4,) or not np.all(np.isfinite(quat)):
+    if quat.shape != (4,) or not all(map(math.isfinite, quat.tolist())):
         raise ValueError(f"pad state quat_wxyz must be 4 finite numbers, got {pad_state.quat_wxyz!r}")
-    if abs(np.linalg.norm(quat) - 1.0) > _QUATERNION_NORM_TOLERANCE:
-        raise ValueError(f"pad state quat_wxyz must be a unit quaternion, norm is {np.linalg.norm(quat):.6f}")
+    norm = math.sqrt(sum(v * v for v in quat.tolist()))
+    if abs(norm - 1.0) > _QUATERNION_NORM_TOLERANCE:
+        raise ValueError(f"pad state quat_wxyz must be a unit quaternion, norm is {norm:.6f}")
     for name in ("lin_vel_mps", "ang_vel_radps"):
         value = np.asarray(getattr(pad_state, name), dtype=float)
-        if value.shape != (3,) or not np.all(np.isfinite(value)):
+        if value.shape != (3,) or not all(map(math.isfinite, value.tolist())):
             raise ValueError(f"pad state {name} must be 3 finite numbers, got {getattr(pad_state, name)!r}")
     if not (math.isfinite(pad_state.normal_force_n) and pad_state.normal_force_n >= 0.0):
         raise ValueError(f"pad state normal_force_n must be finite and >= 0 N, got {pad_state.normal_force_n}")

@@ -202,6 +202,7 @@ class SimulatedBMP280:
         self._temperature_c = config.ambient_temperature_c
         self._rise_pa: float | None = None
         self._pad_drift = PadDriftState(config.pad_drift)
+        self._drifts = not config.pad_drift.is_off
         self._drift_pa = 0.0
         self._filtered_pa: float | None = None
         self._last_step_t: float | None = None
@@ -219,7 +220,7 @@ class SimulatedBMP280:
         else:
             dt = t - self._last_step_t
             self._rise_pa = pad.lag_step(self._rise_pa, normal_force_n, dt)
-            if not self.config.pad_drift.is_off:
+            if self._drifts:
                 self._drift_pa = self._pad_drift.step(self._rise_pa, normal_force_n > 0.0, dt)
         self._last_step_t = t
         if not self._clock.due(t):
