@@ -295,7 +295,8 @@ class SimArm(Robot):
 
     def true_joint_positions(self) -> np.ndarray:
         """Actuated joint positions (dof,), radians, without encoder effects."""
-        return np.array([s.position_rad for s in self._joint_states(self._arm_joints)])
+        raw = self._pb.getJointStates(self.body, self._arm_joints, physicsClientId=self._client)
+        return np.array([float(s[0]) for s in raw])  # raw tuples: read every control tick
 
     def joint_velocities(self) -> np.ndarray:
         """Actuated joint velocities (dof,), rad/s."""
