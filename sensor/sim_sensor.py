@@ -1,8 +1,11 @@
 """The simulated fingertip sensor: BNO055 and BMP280 models fed with the simulator's pad state.
 
-The world glue (robots/) calls :meth:`SimulatedTactileSensor.on_step` after every physics step; each
-chip samples at its own rate and every new chip sample yields a :class:`~sensor.reading.Reading` whose
-other channels hold their newest value, timestamped with the simulation time of that step.
+The world glue (``explorer.simulation.connect_sensor``) calls :meth:`SimulatedTactileSensor.on_step`
+after every physics step, or :meth:`~SimulatedTactileSensor.on_force_step` (the pad's normal force
+alone) on the steps where :meth:`~SimulatedTactileSensor.needs_pad_state` says the chips read nothing
+else: the same readings without the pose queries. Each chip samples at its own rate and every new
+chip sample yields a :class:`~sensor.reading.Reading` whose other channels hold their newest value,
+timestamped with the simulation time of that step.
 """
 from __future__ import annotations
 
