@@ -4,6 +4,8 @@ Quaternions are (w, x, y, z) unless a name says ``xyzw`` (PyBullet's and scipy's
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -112,3 +114,69 @@ def angle_between_rad(quat_a_wxyz, quat_b_wxyz) -> float:
     b = np.asarray(quat_b_wxyz, dtype=float)
     cosine = abs(float(np.dot(a, b))) / (np.linalg.norm(a) * np.linalg.norm(b))
     return 2.0 * float(np.arccos(min(1.0, cosine)))
+
+
+# ---- one rotation at a time, in plain floats --------------------------------------------------
+# Simulated chips compose a few rotations per sample; numpy and scipy cost microseconds of call
+# overhead per operation on 4-vectors, plain float arithmetic a fraction of that.
+# tests/test_rotations_fast.py checks these against scipy's Rotation on random inputs.
+
+def quat_multiply_wxyz(a, b) -> tuple[float, float, float, float]:
+    """Hamilton product ``a * b`` of (w, x, y, z) quaternions: the rotation ``b`` then ``a``.
+
+    Parameters
+    ----------
+    a, b : sequence of 4 float, (w, x, y, z)
+
+    Returns
+    -------
+    tuple of 4 float, (w, x, y, z); unit when both inputs are.
+    """
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw)
+
+
+def quat_from_rotvec_wxyz(x: float, y: float, z: float) -> tuple[float, float, float, float]:
+    """Unit quaternion (w, x, y, z), w >= 0, of the rotation vector (x, y, z) (axis times angle, rad)."""
+    angle = (x * x + y * y + z * z) ** 0.5
+    if angle < 1e-3:  # Taylor series of sin(angle / 2) / angle; exact to float64 below 1e-3 rad
+        angle2 = angle * angle
+        scale = 0.5 - angle2 / 48.0 + angle2 * angle2 / 3840.0
+    else:
+        scale = math.sin(0.5 * angle) / angle
+    return (math.cos(0.5 * angle), x * scale, y * scale, z * scale)
+
+
+def quat_normalised_wxyz(q) -> tuple[float, float, float, float]:
+    """(w, x, y, z) divided by its norm, as floats."""
+    w, x, y, z = q.tolist() if isinstance(q, np.ndarray) else (float(v) for v in q)
+    norm = (w * w + x * x + y * y + z * z) ** 0.5
+    return (w / norm, x / norm, y / norm, z / norm)
+
+
+def quat_rotate_inverse_wxyz(q, v) -> tuple[float, float, float]:
+    """``R(q)^T v``: a world-frame vector in the frame that unit quaternion ``q`` (w, x, y, z) rotates to world.
+
+    Parameters
+    ----------
+    q : sequence of 4 float, unit (w, x, y, z)
+    v : sequence of 3 float
+
+    Returns
+    -------
+    tuple of 3 float
+    """
+    w, x, y, z = q
+    vx, vy, vz = v
+    # v' = v + w t + u x t with u = -(x, y, z) (the conjugate) and t = 2 u x v
+    x, y, z = -x, -y, -z
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return (vx + w * tx + (y * tz - z * ty),
+            vy + w * ty + (z * tx - x * tz),
+            vz + w * tz + (x * ty - y * tx))

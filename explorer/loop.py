@@ -319,7 +319,7 @@ class ExplorationLoop:
         record = TouchOutcome(index, "miss", plan.touch.target_m, plan.touch.approach_dir,
                              plan.stand.yaw_rad, plan.stand.tilt_rad, t_s=self.robot.time_s())
         if approach.stopped:
-            start_pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
+            start_pad = self.kin.pose_of_one(self.robot.joint_positions())[0]
             remaining = plan.path_q[min(approach.waypoint_index + 1, len(plan.path_q) - 1):]
             press_speed = speed * cfg.press_speed_mps / cfg.approach_speed_mps
             press = self.robot.guarded_move(remaining, stop=lambda: self._pressed(start_pad),
@@ -458,7 +458,7 @@ class ExplorationLoop:
         if not self._contact_readings:
             return False
         rise = self._contact_readings[-1].pressure_pa - (self._baseline_pa or 0.0)
-        pad = self.kin.forward_kinematics(self.robot.joint_positions()).position_m
+        pad = self.kin.pose_of_one(self.robot.joint_positions())[0]  # numpy FK: runs every control tick
         travelled = float(np.linalg.norm(pad - start_pad_m))
         target = self.config.press_force_n if force_n is None else force_n
         return travelled >= self.config.press_depth_m or self.contact_pipeline.force_estimate_n(rise) >= target

@@ -4,7 +4,8 @@ For each query the faces whose centroids are nearest are tried first (k-d tree o
 face outside the k nearest has its centroid at least d_k away and every point of it within rho_max
 (largest centroid-to-corner distance) of its centroid, so it is at least d_k - rho_max away: once
 the best distance found is below that bound the answer is exact. Queries not yet certified retry
-with k four times larger, up to all faces. Cost grows with the number of faces within
+with k four times larger, up to all faces; a retry evaluates only the new faces whose centroid lies
+within (best distance so far + rho_max), the only ones that can be nearer. Cost grows with the number of faces within
 (distance + rho_max) of a query: a few dozen for points near a uniformly tessellated surface, all of
 them for a point equidistant from a whole patch (the centre of a sphere).
 """
@@ -113,10 +114,22 @@ class MeshProximity:
                 centre_distance, candidate = self._tree.query(points[rows], k=k)
                 centre_distance = centre_distance.reshape(len(rows), k)
                 candidate = candidate.reshape(len(rows), k)[:, tried:]  # nearer ones were tried before
-                tri = self._triangles[candidate.ravel()]
-                query = np.repeat(points[rows], k - tried, axis=0)
-                on_face = closest_on_triangles(query, tri[:, 0], tri[:, 1], tri[:, 2]).reshape(len(rows), k - tried, 3)
-                gap = np.linalg.norm(on_face - points[rows, None], axis=2)
+                # Only faces that can beat the best so far: centroid nearer than best + rho_max.
+                useful = centre_distance[:, tried:] < distance[rows, None] + self._rho_max
+                if useful.all():
+                    tri = self._triangles[candidate.ravel()]
+                    query = np.repeat(points[rows], k - tried, axis=0)
+                    on_face = closest_on_triangles(query, tri[:, 0], tri[:, 1], tri[:, 2]).reshape(len(rows), k - tried, 3)
+                    gap = np.linalg.norm(on_face - points[rows, None], axis=2)
+                else:
+                    pair_row, pair_col = np.nonzero(useful)
+                    tri = self._triangles[candidate[pair_row, pair_col]]
+                    on_face = np.zeros((len(rows), k - tried, 3))
+                    on_face[pair_row, pair_col] = closest_on_triangles(points[rows][pair_row], tri[:, 0], tri[:, 1],
+                                                                       tri[:, 2])
+                    gap = np.full((len(rows), k - tried), np.inf)
+                    gap[pair_row, pair_col] = np.linalg.norm(on_face[pair_row, pair_col] - points[rows][pair_row],
+                                                             axis=1)
                 best = np.argmin(gap, axis=1)
                 pick = np.arange(len(rows))
                 better = gap[pick, best] < distance[rows]

@@ -94,37 +94,74 @@ def _press_line(kinematics: ArmKinematics, mesh, position: np.ndarray) -> np.nda
     raise RuntimeError("no reachable press line on the benchmark object")
 
 
+class PressCycles:
+    """The benchmark's press cycles, ready to run in bursts (a context manager).
+
+    Builds the world (table, object, arm at the start of a reachable press line) once;
+    :meth:`run` then presses for a number of simulated seconds and returns the wall time it took,
+    so bare-physics bursts can be interleaved with other work measured under the same load.
+
+    Parameters
+    ----------
+    robot, object_name, time_step_s : as :func:`measure`
+    listener : bool
+        Read ``pad_state()`` after every physics step.
+    """
+
+    def __init__(self, robot: str = "armar3", object_name: str | None = None, time_step_s: float | None = None,
+                 listener: bool = False):
+        spec = load(robot)
+        kinematics = ArmKinematics(spec)
+        table = TableSpec()
+        self._tmp = tempfile.TemporaryDirectory()
+        urdf, mesh, self.label = _object(object_name, Path(self._tmp.name))
+        centre = np.array(spec.workspace_center_m)
+        position = np.array([centre[0], centre[1], table.height_m - mesh.bounds[0][2]])
+        self._path = _press_line(kinematics, mesh, position)
+        options = {} if time_step_s is None else {"time_step_s": time_step_s}
+        self.world = SimWorld(table=table, **options)
+        self.arm = SimArm(self.world, spec)
+        self.world.add_object(urdf, position)
+        self.arm.reset_joint_positions(self._path[0])
+        if listener:
+            self.world.add_step_listener(lambda t: self.arm.pad_state())
+        self.forces: list[float] = []
+
+    def run(self, seconds: float) -> float:
+        """Press for at least ``seconds`` simulated (whole cycles); return the wall seconds taken."""
+        world, arm, path = self.world, self.arm, self._path
+        end = world.time_s + seconds
+        start = time.perf_counter()
+        while world.time_s < end:
+            arm.guarded_move(path[1:], lambda: arm.pad_state().normal_force_n > PRESS_FORCE_N, speed_rad_s=0.05)
+            hold_until = world.time_s + 0.25
+            while world.time_s < hold_until:
+                world.step(arm.control_steps)
+                self.forces.append(arm.pad_state().normal_force_n)
+            arm.guarded_move(path[:1], lambda: False, speed_rad_s=0.2)
+        return time.perf_counter() - start
+
+    def close(self) -> None:
+        self.world.close()
+        self._tmp.cleanup()
+
+    def __enter__(self) -> "PressCycles":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
 def measure(robot: str = "armar3", seconds: float = 10.0, time_step_s: float | None = None,
             object_name: str | None = None) -> SpeedFigures:
     """Real-time factors of :class:`SimWorld` + :class:`SimArm` pressing an object, DIRECT mode."""
-    spec = load(robot)
-    kinematics = ArmKinematics(spec)
-    table = TableSpec()
-    options = {} if time_step_s is None else {"time_step_s": time_step_s}
     factors, forces = [], []
-    with tempfile.TemporaryDirectory() as tmp:
-        urdf, mesh, label = _object(object_name, Path(tmp))
-        centre = np.array(spec.workspace_center_m)
-        position = np.array([centre[0], centre[1], table.height_m - mesh.bounds[0][2]])
-        path = _press_line(kinematics, mesh, position)
-        for with_listener in (True, False):
-            with SimWorld(table=table, **options) as world:
-                arm = SimArm(world, spec)
-                world.add_object(urdf, position)
-                arm.reset_joint_positions(path[0])
-                if with_listener:
-                    world.add_step_listener(lambda t: arm.pad_state())
-                start = time.perf_counter()
-                while world.time_s < seconds:
-                    arm.guarded_move(path[1:], lambda: arm.pad_state().normal_force_n > PRESS_FORCE_N,
-                                     speed_rad_s=0.05)
-                    hold_until = world.time_s + 0.25
-                    while world.time_s < hold_until:
-                        world.step(arm.control_steps)
-                        forces.append(arm.pad_state().normal_force_n)
-                    arm.guarded_move(path[:1], lambda: False, speed_rad_s=0.2)
-                factors.append(world.time_s / (time.perf_counter() - start))
-                dt = world.time_step_s
+    for with_listener in (True, False):
+        with PressCycles(robot, object_name, time_step_s, listener=with_listener) as bench:
+            wall = bench.run(seconds)
+            factors.append(bench.world.time_s / wall)
+            forces += bench.forces
+            dt, label = bench.world.time_step_s, bench.label
     pressing = [f for f in forces if f > 0.0]
     return SpeedFigures(robot, label, dt, factors[0], factors[1], seconds,
                         float(np.mean(pressing)) if pressing else 0.0)

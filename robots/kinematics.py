@@ -7,6 +7,7 @@ All poses are in the world frame (the spec's base pose applied), metres.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -91,6 +92,7 @@ class ArmKinematics:
         base[:3, 3] = spec.base_position_m
         self._base = torch.tensor(base, dtype=DTYPE)
         self._pivot_to_pad_in_body = self._pivot_to_pad_offset()
+        self._serial = _SerialChainNumpy(self._chain, self.link_names, inputs, base)
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -160,6 +162,21 @@ class ArmKinematics:
             spring_t = torch.as_tensor(spring.reshape(-1, 2).copy(), dtype=DTYPE)
         return q_t, spring_t, batch
 
+    def pose_of_one(self, q, link: str | None = None, spring_rad=None) -> tuple[np.ndarray, np.ndarray]:
+        """(position (3,), rotation (3, 3)) of ``link`` (default: the pad face centre) for one
+        configuration ``q`` ((dof,) radians; ``spring_rad`` (2,) or None), world frame.
+
+        The same transforms as :meth:`forward_kinematics` in plain numpy, without its batch and torch
+        overhead (tens of microseconds rather than milliseconds): for checks inside a control loop.
+        Agrees with it to rounding (``tests/test_kinematics.py``), not necessarily to the last bit.
+        """
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self.dof,) or not np.all(np.isfinite(q)):
+            raise ValueError(f"q must be {self.dof} finite joint angles for joints {self.joint_names}, got {q!r}")
+        spring = (0.0, 0.0) if spring_rad is None else tuple(float(v) for v in spring_rad)
+        transform = self._serial.transform(q.tolist() + list(spring), self._link(link or self.spec.pad_link))
+        return transform[:3, 3].copy(), transform[:3, :3].copy()
+
     def forward_kinematics(self, q, link: str | None = None, spring_rad=None) -> LinkPoses:
         """Pose of ``link`` (default: the pad face centre) for joint positions ``q``.
 
@@ -227,3 +244,58 @@ class ArmKinematics:
         pivot = self.forward_kinematics(q, self.spec.pivot_link).position_m
         return pivot + quat_to_matrix(quat) @ self._pivot_to_pad_in_body
 
+
+class _SerialChainNumpy:
+    """Forward kinematics of a pytorch_kinematics serial chain for one configuration, in numpy.
+
+    Per link: ``T_world[i] = T_world[i-1] @ offset[i] @ R(axis[i], theta)`` with the chain's own
+    static offsets (link offset @ joint offset) and joint axes, the base pose applied first, as
+    ``pytorch_kinematics`` composes them.
+
+    Parameters
+    ----------
+    chain : pytorch_kinematics.SerialChain
+    link_names : sequence of str
+        The chain's links, root first.
+    inputs : sequence of str
+        Joint names in the order of the joint vectors this class is given.
+    base : (4, 4) float
+        World pose of the chain's root frame.
+    """
+
+    def __init__(self, chain, link_names, inputs, base: np.ndarray):
+        eye = torch.eye(4, dtype=DTYPE)
+        self._offsets, self._joints = [], []
+        for name in link_names:
+            frame = chain.find_frame(name)
+            link_offset = eye if frame.link.offset is None else frame.link.offset.get_matrix()[0].to(DTYPE)
+            joint_offset = eye if frame.joint.offset is None else frame.joint.offset.get_matrix()[0].to(DTYPE)
+            self._offsets.append((link_offset @ joint_offset).numpy())
+            if frame.joint.joint_type == "revolute":
+                axis = tuple(float(v) for v in frame.joint.axis)
+                self._joints.append((inputs.index(frame.joint.name), axis))
+            elif frame.joint.joint_type == "fixed":
+                self._joints.append(None)
+            else:
+                raise ValueError(f"joint {frame.joint.name!r} is {frame.joint.joint_type}: only revolute and fixed")
+        self._base = np.asarray(base, dtype=float)
+
+    def transform(self, values: list[float], upto: int) -> np.ndarray:
+        """World transform (4, 4) of link number ``upto`` for joint values ``values`` (radians)."""
+        t = self._base
+        for offset, joint in zip(self._offsets[:upto + 1], self._joints[:upto + 1]):
+            t = t @ offset
+            if joint is not None:
+                t = t @ _rotation_44(joint[1], values[joint[0]])
+        return t
+
+
+def _rotation_44(axis: tuple[float, float, float], theta: float) -> np.ndarray:
+    """(4, 4) rotation by ``theta`` (rad) about the unit ``axis`` (Rodrigues)."""
+    c, s = math.cos(theta), math.sin(theta)
+    k = 1.0 - c
+    x, y, z = axis
+    return np.array([[c + x * x * k, x * y * k - z * s, x * z * k + y * s, 0.0],
+                     [y * x * k + z * s, c + y * y * k, y * z * k - x * s, 0.0],
+                     [z * x * k - y * s, z * y * k + x * s, c + z * z * k, 0.0],
+                     [0.0, 0.0, 0.0, 1.0]])

@@ -264,7 +264,9 @@ class SimArm(Robot):
     def _apply_spring_torque(self, _t_s: float) -> None:
         pb = self._pb
         k, c = self.spring_stiffness_nm_per_rad, self.spring_damping_nms_per_rad
-        torques = [-k * s.position_rad - c * s.velocity_rad_s for s in self._joint_states(self._spring_joints)]
+        # raw getJointStates tuples (position, velocity, ...): this runs before every physics step
+        raw = pb.getJointStates(self.body, self._spring_joints, physicsClientId=self._client)
+        torques = [-k * s[0] - c * s[1] for s in raw]
         pb.setJointMotorControlArray(self.body, self._spring_joints, pb.TORQUE_CONTROL, forces=torques,
                                      physicsClientId=self._client)
 
@@ -311,7 +313,8 @@ class SimArm(Robot):
 
     def true_joint_positions(self) -> np.ndarray:
         """Actuated joint positions (dof,), radians, without encoder effects."""
-        return np.array([s.position_rad for s in self._joint_states(self._arm_joints)])
+        raw = self._pb.getJointStates(self.body, self._arm_joints, physicsClientId=self._client)
+        return np.array([float(s[0]) for s in raw])  # raw tuples: read every control tick
 
     def servo_positions(self) -> np.ndarray:
         """What the joint controllers servo (dof,), radians: true angles plus the calibration offset."""
@@ -412,6 +415,12 @@ class SimArm(Robot):
                 normal_force_n=c.normal_force_n,
             ))
         return contacts
+
+    def pad_normal_force_n(self) -> float:
+        """Total normal force on the pad as of the last physics step, newtons: ``pad_state().normal_force_n``
+        without the pose queries (what a simulated barometer needs every step)."""
+        raw = self._pb.getContactPoints(bodyA=self.body, linkIndexA=self._pad, physicsClientId=self._client)
+        return float(sum(c[9] for c in raw if c[9] > 0.0))
 
     def pad_state(self) -> PadState:
         """True state of the sensor body and the pad's contact, as of the last physics step."""

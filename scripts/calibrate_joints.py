@@ -61,6 +61,7 @@ def run_touches(profile, robot: str, count: int, seed: int, progress=None):
     from sensor.contact_detection import PressureContactDetector
     from sensor.normal_estimation import OrientationNotSettledError, estimate_normal
     from sensor.sim_sensor import SimulatedTactileSensor
+    from explorer.simulation import connect_sensor
 
     spec = profile.robot_spec(robots.load(robot))
     kinematics = ArmKinematics(spec)
@@ -73,7 +74,7 @@ def run_touches(profile, robot: str, count: int, seed: int, progress=None):
         arm = SimArm(world, spec, encoder=encoder, spring_friction_nm=profile.spring_friction_nm,
                      link_length_error_m=profile.link_length_errors_m(spec, seed))
         sensor = SimulatedTactileSensor(config=profile.sensor_config(), seed=seed)
-        world.add_step_listener(lambda _t: sensor.on_step(arm.pad_state()))
+        connect_sensor(world, arm, sensor)
         sensor.open()
         handle = world.add_object(ball.urdf_path, centres[0], name="ball")
         for k, (centre, normal) in enumerate(zip(centres, normals)):

@@ -1,8 +1,11 @@
 """The simulated fingertip sensor: BNO055 and BMP280 models fed with the simulator's pad state.
 
-The world glue (robots/) calls :meth:`SimulatedTactileSensor.on_step` after every physics step; each
-chip samples at its own rate and every new chip sample yields a :class:`~sensor.reading.Reading` whose
-other channels hold their newest value, timestamped with the simulation time of that step.
+The world glue (``explorer.simulation.connect_sensor``) calls :meth:`SimulatedTactileSensor.on_step`
+after every physics step, or :meth:`~SimulatedTactileSensor.on_force_step` (the pad's normal force
+alone) on the steps where :meth:`~SimulatedTactileSensor.needs_pad_state` says the chips read nothing
+else: the same readings without the pose queries. Each chip samples at its own rate and every new
+chip sample yields a :class:`~sensor.reading.Reading` whose other channels hold their newest value,
+timestamped with the simulation time of that step.
 """
 from __future__ import annotations
 
@@ -128,17 +131,50 @@ class SimulatedTactileSensor(TactileSensor):
         if not self.is_open:
             return
         _check_pad_state(pad_state)
-        if self._last_t is not None and not pad_state.t_s > self._last_t:
-            raise ValueError(f"pad state time {pad_state.t_s} s does not increase past {self._last_t} s")
-        self._last_t = pad_state.t_s
+        self._advance_time(pad_state.t_s)
         imu_sample = self._imu.step(pad_state)
         pressure_sample = self._barometer.step(pad_state)
+        self._queue(pad_state.t_s, imu_sample, pressure_sample)
+
+    def needs_pad_state(self, t_s: float) -> bool:
+        """Whether the step at ``t_s`` needs the whole pad state (:meth:`on_step`): an IMU sample
+        falls due then or the IMU keeps a latency history. Where False, :meth:`on_force_step`
+        with the pad's normal force gives the same readings; the PyBullet glue uses it to skip
+        the pose queries on the steps between IMU samples."""
+        return self.is_open and self._imu.needs_pad_state(t_s)
+
+    def on_force_step(self, t_s: float, normal_force_n: float) -> None:
+        """:meth:`on_step` on a step where :meth:`needs_pad_state` is False: only the barometer
+        reads the pad then, and it reads the normal force (N) alone.
+
+        Raises
+        ------
+        ValueError
+            If time does not increase, the force is not finite and >= 0, or the IMU needs the
+            whole pad state at ``t_s``.
+        """
+        if not self.is_open:
+            return
+        if not (math.isfinite(t_s) and math.isfinite(normal_force_n) and normal_force_n >= 0.0):
+            raise ValueError(f"need a finite time and a finite normal force >= 0 N, got {t_s}, {normal_force_n}")
+        if self._imu.needs_pad_state(t_s):
+            raise ValueError(f"the IMU samples at {t_s} s: call on_step(pad_state) there")
+        self._advance_time(t_s)
+        self._queue(t_s, None, self._barometer.step_force(t_s, normal_force_n))
+
+    def _advance_time(self, t_s: float) -> None:
+        if self._last_t is not None and not t_s > self._last_t:
+            raise ValueError(f"pad state time {t_s} s does not increase past {self._last_t} s")
+        self._last_t = t_s
+
+    def _queue(self, t_s: float, imu_sample: ImuSample | None, pressure_sample: PressureSample | None) -> None:
+        """A Reading at ``t_s`` if either chip produced a sample."""
         if imu_sample is None and pressure_sample is None:
             return
         self._imu_sample = imu_sample or self._imu_sample
         self._pressure_sample = pressure_sample or self._pressure_sample
         reading = Reading(
-            t_s=pad_state.t_s,
+            t_s=t_s,
             pressure_pa=self._pressure_sample.pressure_pa,
             quat_wxyz=self._imu_sample.quat_wxyz,
             lin_acc_mps2=self._imu_sample.lin_acc_mps2,
@@ -189,16 +225,18 @@ class SimulatedTactileSensor(TactileSensor):
 
 
 def _check_pad_state(pad_state: PadState) -> None:
+    # plain floats: this runs on every IMU sample step
     if not math.isfinite(pad_state.t_s):
         raise ValueError(f"pad state time must be finite, got {pad_state.t_s}")
     quat = np.asarray(pad_state.quat_wxyz, dtype=float)
-    if quat.shape != (4,) or not np.all(np.isfinite(quat)):
+    if quat.shape != (4,) or not all(map(math.isfinite, quat.tolist())):
         raise ValueError(f"pad state quat_wxyz must be 4 finite numbers, got {pad_state.quat_wxyz!r}")
-    if abs(np.linalg.norm(quat) - 1.0) > _QUATERNION_NORM_TOLERANCE:
-        raise ValueError(f"pad state quat_wxyz must be a unit quaternion, norm is {np.linalg.norm(quat):.6f}")
+    norm = math.sqrt(sum(v * v for v in quat.tolist()))
+    if abs(norm - 1.0) > _QUATERNION_NORM_TOLERANCE:
+        raise ValueError(f"pad state quat_wxyz must be a unit quaternion, norm is {norm:.6f}")
     for name in ("lin_vel_mps", "ang_vel_radps"):
         value = np.asarray(getattr(pad_state, name), dtype=float)
-        if value.shape != (3,) or not np.all(np.isfinite(value)):
+        if value.shape != (3,) or not all(map(math.isfinite, value.tolist())):
             raise ValueError(f"pad state {name} must be 3 finite numbers, got {getattr(pad_state, name)!r}")
     if not (math.isfinite(pad_state.normal_force_n) and pad_state.normal_force_n >= 0.0):
         raise ValueError(f"pad state normal_force_n must be finite and >= 0 N, got {pad_state.normal_force_n}")

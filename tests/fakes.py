@@ -142,6 +142,9 @@ class FakeKinematics:
         return SimpleNamespace(position_m=np.asarray(q, float).copy(), rotation=np.eye(3),
                                z_axis=np.array([0.0, 0.0, 1.0]))
 
+    def pose_of_one(self, q, link=None):
+        return np.asarray(q, float).copy(), np.eye(3)
+
 
 class FakePlanner:
     """Plans every touch straight along its line at the stand's pose, except where ``unreachable(target_m)``."""

@@ -152,3 +152,18 @@ def test_bad_inputs_are_rejected(kinematics):
         kinematics.forward_kinematics(kinematics.spec.home_q, "hand")
     with pytest.raises(ValueError, match="unit quaternions"):
         kinematics.pad_position_from_orientation(kinematics.spec.home_q, [2.0, 0, 0, 0])
+
+
+def test_numpy_pose_of_one_is_the_batched_fk_at_random_angles(kinematics):
+    """The per-tick numpy FK against pytorch_kinematics, every link, springs deflected (1e-9 m, 1e-9)."""
+    q, springs = _random_configs(kinematics, 40, seed=7)
+    for link in kinematics.link_names:
+        batched = kinematics.forward_kinematics(q, link, springs)
+        for i in range(len(q)):
+            position, rotation = kinematics.pose_of_one(q[i], link, springs[i])
+            np.testing.assert_allclose(position, batched.position_m[i], atol=1e-9, rtol=0)
+            np.testing.assert_allclose(rotation, batched.rotation[i], atol=1e-9, rtol=0)
+    position, _ = kinematics.pose_of_one(q[0])  # default: the pad, springs at 0
+    np.testing.assert_allclose(position, kinematics.forward_kinematics(q[0]).position_m, atol=1e-9, rtol=0)
+    with pytest.raises(ValueError, match="finite joint angles"):
+        kinematics.pose_of_one(q[:3])

@@ -183,6 +183,7 @@ def test_pad_self_aligns_with_a_tilted_surface(world, spec, kinematics, box_urdf
     world.step(120)
     pressed = arm.pad_state()
     assert pressed.normal_force_n > 0.5
+    assert arm.pad_normal_force_n() == pressed.normal_force_n  # the force-only query (every physics step)
     body_axis = quat_to_matrix(pressed.quat_wxyz)[:, 2]
     assert math.degrees(angle_between_vectors(body_axis, -normal)) < 3.0
     assert math.degrees(angle_between_vectors(pressed.contact_normal, normal)) < 0.5

@@ -202,6 +202,7 @@ class SimulatedBMP280:
         self._temperature_c = config.ambient_temperature_c
         self._rise_pa: float | None = None
         self._pad_drift = PadDriftState(config.pad_drift)
+        self._drifts = not config.pad_drift.is_off
         self._drift_pa = 0.0
         self._filtered_pa: float | None = None
         self._last_step_t: float | None = None
@@ -209,15 +210,18 @@ class SimulatedBMP280:
 
     def step(self, pad_state: PadState) -> PressureSample | None:
         """Advance to ``pad_state.t_s`` with the pad's normal force; return a sample if one is due."""
-        t = pad_state.t_s
+        return self.step_force(pad_state.t_s, pad_state.normal_force_n)
+
+    def step_force(self, t: float, normal_force_n: float) -> PressureSample | None:
+        """:meth:`step` from the two values it reads: time (s) and the pad's normal force (N)."""
         pad = self.config.pad
         if self._rise_pa is None:
-            self._rise_pa = pad.pressure_rise_pa(pad_state.normal_force_n)
+            self._rise_pa = pad.pressure_rise_pa(normal_force_n)
         else:
             dt = t - self._last_step_t
-            self._rise_pa = pad.lag_step(self._rise_pa, pad_state.normal_force_n, dt)
-            if not self.config.pad_drift.is_off:
-                self._drift_pa = self._pad_drift.step(self._rise_pa, pad_state.normal_force_n > 0.0, dt)
+            self._rise_pa = pad.lag_step(self._rise_pa, normal_force_n, dt)
+            if self._drifts:
+                self._drift_pa = self._pad_drift.step(self._rise_pa, normal_force_n > 0.0, dt)
         self._last_step_t = t
         if not self._clock.due(t):
             return None

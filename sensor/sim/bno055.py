@@ -49,7 +49,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from common.pad_state import PadState
-from common.rotations import rotation_from_wxyz, wxyz_from_rotation
+from common.rotations import (quat_from_rotvec_wxyz, quat_multiply_wxyz, quat_normalised_wxyz,
+                              quat_rotate_inverse_wxyz, wxyz_from_rotation)
 from sensor.sim.sampling import SampleClock
 
 STANDARD_GRAVITY_MPS2 = 9.80665
@@ -191,8 +192,9 @@ class ImuSample:
 class SimulatedBNO055:
     """Fused IMU outputs at the fusion rate, from the true pad pose and velocity.
 
-    Call :meth:`step` after every physics step; it returns an :class:`ImuSample` on the steps where
-    a fusion output falls due, else None. Linear acceleration is the mean acceleration since the
+    Call :meth:`step` after every physics step (or at least on the steps where
+    :meth:`needs_pad_state` is True: the others change nothing); it returns an :class:`ImuSample`
+    on the steps where a fusion output falls due, else None. Linear acceleration is the mean acceleration since the
     previous sample (finite difference of the true velocity), so the first sample reports zero.
 
     Parameters
@@ -215,13 +217,20 @@ class SimulatedBNO055:
         self._clock = SampleClock(1.0 / config.output_rate_hz)
         noise = config.noise
         self._accel_bias_mps2 = noise.accel_bias_std_mps2 * rng.standard_normal(3)
-        self._tilt_bias_rad = noise.tilt_bias_std_rad * rng.standard_normal(2)
+        self._tilt_bias_rad = tuple((noise.tilt_bias_std_rad * rng.standard_normal(2)).tolist())
         self.mounting = Rotation.from_rotvec(noise.mounting_misalignment_std_rad * rng.standard_normal(3))
+        self._mounting_wxyz = tuple(float(v) for v in wxyz_from_rotation(self.mounting))
         # Drawn last and only when on, so that profiles without it keep their earlier random streams.
-        self._yaw_bias_rad = noise.heading_offset_std_rad * rng.standard_normal() if noise.heading_offset_std_rad else 0.0
+        self._yaw_bias_rad = float(noise.heading_offset_std_rad * rng.standard_normal()) if noise.heading_offset_std_rad else 0.0
+        self._accel_noise_std_mps2 = config.accel_noise_std_mps2
         self._history: deque[PadState] = deque()
         self._last_t: float | None = None
         self._last_velocity_mps: np.ndarray | None = None
+
+    def needs_pad_state(self, t_s: float) -> bool:
+        """Whether :meth:`step` must see the pad's state at ``t_s``: a sample falls due then, or the
+        latency history keeps every step. Where False, leaving the step out changes nothing."""
+        return self.config.latency_s > 0.0 or self._clock.would_be_due(t_s)
 
     def step(self, pad_state: PadState) -> ImuSample | None:
         """Advance to ``pad_state.t_s``; return a fused output if one is due."""
@@ -235,43 +244,50 @@ class SimulatedBNO055:
         return self._measure(self._history[0] if self.config.latency_s > 0.0 else pad_state, now)
 
     def _measure(self, pad_state: PadState, t: float) -> ImuSample:
-        velocity = np.asarray(pad_state.lin_vel_mps, dtype=float)
+        # Plain-float quaternion algebra (common.rotations): the compositions of scipy's Rotation
+        # (tests/test_rotations_fast.py compares the two), a sample in microseconds.
+        vx, vy, vz = np.asarray(pad_state.lin_vel_mps, dtype=float).tolist()
         if self._last_t is None:
-            acceleration_world = np.zeros(3)
+            ax = ay = az = 0.0
         else:
             dt = t - self._last_t
-            acceleration_world = (velocity - self._last_velocity_mps) / dt
+            lx, ly, lz = self._last_velocity_mps
+            ax, ay, az = (vx - lx) / dt, (vy - ly) / dt, (vz - lz) / dt
             self._advance_bias(dt)
         self._last_t = t
-        self._last_velocity_mps = velocity
+        self._last_velocity_mps = (vx, vy, vz)
 
-        chip_rotation = rotation_from_wxyz(pad_state.quat_wxyz) * self.mounting
-        measured_rotation = self._orientation_error_world() * chip_rotation * self._orientation_error_body()
-        up = np.array([0.0, 0.0, self.config.gravity_mps2])
-        specific_force = chip_rotation.inv().apply(acceleration_world + up)
-        specific_force += self._accel_bias_mps2 + self.config.accel_noise_std_mps2 * self._rng.standard_normal(3)
-        gravity = measured_rotation.inv().apply(up)
-        lin_acc = specific_force - gravity
+        noise = self.config.noise
+        pad_quat = np.asarray(pad_state.quat_wxyz, dtype=float).tolist()
+        chip = quat_multiply_wxyz(quat_normalised_wxyz(pad_quat), self._mounting_wxyz)
+        error_world = quat_from_rotvec_wxyz(self._tilt_bias_rad[0], self._tilt_bias_rad[1], self._yaw_bias_rad)
+        ex, ey, ez = (noise.orientation_white_std_rad * self._rng.standard_normal(3)).tolist()
+        measured = quat_multiply_wxyz(quat_multiply_wxyz(error_world, chip), quat_from_rotvec_wxyz(ex, ey, ez))
+        g = self.config.gravity_mps2
+        fx, fy, fz = quat_rotate_inverse_wxyz(chip, (ax, ay, az + g))
+        bias = self._accel_bias_mps2
+        nx, ny, nz = (bias + self._accel_noise_std_mps2 * self._rng.standard_normal(3)).tolist()
+        gravity = quat_rotate_inverse_wxyz(measured, (0.0, 0.0, g))
+        lin_acc = (fx + nx - gravity[0], fy + ny - gravity[1], fz + nz - gravity[2])
 
-        quat = wxyz_from_rotation(measured_rotation)
-        if np.dot(quat, pad_state.quat_wxyz) < 0.0:
-            quat = -quat  # keep the caller's hemisphere so the stream has no sign jumps
-        if self.config.quantise:
-            quat = np.round(quat / QUATERNION_LSB) * QUATERNION_LSB
+        qw, qx, qy, qz = pad_quat
+        if measured[0] * qw + measured[1] * qx + measured[2] * qy + measured[3] * qz < 0.0:
+            measured = tuple(-v for v in measured)  # keep the caller's hemisphere: no sign jumps
+        if self.config.quantise:  # round() of a float is round-half-even, as numpy's rint
+            quat = np.array([round(v / QUATERNION_LSB) * QUATERNION_LSB for v in measured])
             quat /= np.linalg.norm(quat)
-            gravity = np.round(gravity / ACCELERATION_LSB_MPS2) * ACCELERATION_LSB_MPS2 + 0.0  # no -0.0
-            lin_acc = np.round(lin_acc / ACCELERATION_LSB_MPS2) * ACCELERATION_LSB_MPS2 + 0.0
-        return ImuSample(t_s=t, quat_wxyz=quat, lin_acc_mps2=lin_acc, gravity_mps2=gravity)
+            lsb = ACCELERATION_LSB_MPS2
+            gravity = tuple(round(v / lsb) * lsb + 0.0 for v in gravity)  # + 0.0: no -0.0
+            lin_acc = tuple(round(v / lsb) * lsb + 0.0 for v in lin_acc)
+        else:
+            quat = np.array(measured)
+        return ImuSample(t_s=t, quat_wxyz=quat, lin_acc_mps2=np.array(lin_acc), gravity_mps2=np.array(gravity))
 
     def _advance_bias(self, dt: float) -> None:
         noise = self.config.noise
-        self._yaw_bias_rad += noise.yaw_random_walk_rad_per_sqrt_s * math.sqrt(dt) * self._rng.standard_normal()
+        self._yaw_bias_rad += noise.yaw_random_walk_rad_per_sqrt_s * math.sqrt(dt) * float(self._rng.standard_normal())
         keep = math.exp(-dt / noise.tilt_bias_time_constant_s)
-        self._tilt_bias_rad = (keep * self._tilt_bias_rad
-                               + noise.tilt_bias_std_rad * math.sqrt(1.0 - keep * keep) * self._rng.standard_normal(2))
-
-    def _orientation_error_world(self) -> Rotation:
-        return Rotation.from_rotvec([self._tilt_bias_rad[0], self._tilt_bias_rad[1], self._yaw_bias_rad])
-
-    def _orientation_error_body(self) -> Rotation:
-        return Rotation.from_rotvec(self.config.noise.orientation_white_std_rad * self._rng.standard_normal(3))
+        scale = noise.tilt_bias_std_rad * math.sqrt(1.0 - keep * keep)
+        tx, ty = self._tilt_bias_rad
+        dx, dy = self._rng.standard_normal(2).tolist()
+        self._tilt_bias_rad = (keep * tx + scale * dx, keep * ty + scale * dy)

@@ -60,7 +60,7 @@ class PadResponse:
         float or (n,) float
             Pressure rise, pascals, in [0, saturation_pa).
         """
-        if np.ndim(force_n) == 0:  # scalar path: called every physics step
+        if type(force_n) is float or np.ndim(force_n) == 0:  # scalar path: called every physics step
             force = float(force_n)
             if not (math.isfinite(force) and force >= 0.0):
                 raise ValueError(f"force_n must be finite and >= 0 N, got {force_n!r}")

@@ -26,6 +26,10 @@ class SampleClock:
         self.period_s = period_s
         self._next_due_s: float | None = None
 
+    def would_be_due(self, t_s: float) -> bool:
+        """What :meth:`due` would answer at ``t_s``, without advancing the schedule."""
+        return self._next_due_s is None or t_s >= self._next_due_s - _TIME_TOLERANCE_S
+
     def due(self, t_s: float) -> bool:
         """True when a sample falls due at time ``t_s``; advances the schedule if so."""
         if self._next_due_s is None:
