@@ -31,6 +31,7 @@ import numpy as np
 from explorer.config import ExplorationConfig
 from explorer.contact import LOOP_SETTLING, ContactPipeline, NoContactMeasured, ObjectFrame, misaligned
 from explorer.evidence import SurfaceEvidence
+from explorer.motion_time import MotionTimeEstimator
 from explorer.planner import ApproachPlan, ApproachPlanner
 from explorer.rig import Rig
 from explorer.strategies import ExplorationState, TouchStrategy
@@ -160,7 +161,7 @@ class ExplorationLoop:
         self.detector = detector or PressureContactDetector()
         self.contact_pipeline = ContactPipeline(rig.kinematics, rig.pad, settling)
         self.evidence = SurfaceEvidence(gpis, config.free_space_value, config.free_space_noise)
-        self.state = ExplorationState(rig.prior)
+        self.state = ExplorationState(rig.prior, motion=MotionTimeEstimator(planner, rig.positioner))
         self.records: list[TouchOutcome] = []
         self.times = PhaseTimes()
         self._contact_readings: list[Reading] = []
