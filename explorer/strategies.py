@@ -357,6 +357,57 @@ def normal_spread_rad(gp: GPIS, targets: np.ndarray, inward: np.ndarray, radius_
     return np.arccos(np.clip(cosines.min(1), -1.0, 1.0))
 
 
+def planar_approach(points: np.ndarray, normals: np.ndarray, targets: np.ndarray, inward: np.ndarray,
+                    radius_m: float, max_angle_rad: float = np.radians(12.0), max_residual_m: float = 0.0015,
+                    max_offset_m: float = 0.012, min_contacts: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Approach along the plane of the nearby contacts where they say the surface is flat there.
+
+    Where the GPIS is still a smooth blob its normal can be 30-80 deg off a flat face (a plate,
+    a box side), and a pad that meets a face that obliquely lands on its rim, millimetres off.
+    For each target the measured contacts within ``radius_m`` whose normals face the same side
+    (within 60 deg of the GPIS normal) are taken; if there are ``min_contacts`` of them, their
+    normals lie within ``max_angle_rad`` of their mean, their positions within ``max_residual_m``
+    of the plane through their centroid with that normal, and the target within ``max_offset_m``
+    of it, the target moves onto that plane and the approach follows its inward normal.
+
+    Parameters
+    ----------
+    points, normals : (n, 3) float
+        Contacts and their outward normals, object frame.
+    targets, inward : (k, 3) float
+        Candidate targets and their (unit) GPIS approach directions.
+
+    Returns
+    -------
+    targets, approach : (k, 3) float
+        Unchanged where no plane applies.
+    planar : (k,) bool
+        Where one did.
+    """
+    targets, approach = targets.copy(), inward.copy()
+    planar = np.zeros(len(targets), bool)
+    if len(points) < min_contacts:
+        return targets, approach, planar
+    distance = np.linalg.norm(targets[:, None] - points[None], axis=-1)
+    facing = (-inward) @ normals.T > 0.5
+    for i in np.flatnonzero(((distance < radius_m) & facing).sum(1) >= min_contacts):
+        near = (distance[i] < radius_m) & facing[i]
+        mean = normals[near].sum(0)
+        mean /= np.linalg.norm(mean)
+        if np.min(normals[near] @ mean) < np.cos(max_angle_rad):
+            continue
+        centroid = points[near].mean(0)
+        if np.max(np.abs((points[near] - centroid) @ mean)) > max_residual_m:
+            continue
+        offset = float((targets[i] - centroid) @ mean)
+        if abs(offset) > max_offset_m:
+            continue
+        targets[i] = targets[i] - offset * mean
+        approach[i] = -mean
+        planar[i] = True
+    return targets, approach, planar
+
+
 class EfficientStrategy(VarianceStrategy):
     """The touch that removes the most surface uncertainty per expected second.
 
@@ -373,9 +424,14 @@ class EfficientStrategy(VarianceStrategy):
       pad does not lie flat there and its contact is off by millimetres);
     * reach factor ``1 - exp(-d^2 / 2 reach_radius_m^2)``, ``d`` the distance to the nearest target the
       planner could not reach (or that was blocked);
+    * approach: along the GPIS normal, or, where the nearby contacts say the surface is flat, along
+      their plane's normal (:func:`planar_approach`, within ``plane_radius_m``; 0 switches it off);
     * time: the state's motion estimate (stand change, arm travel, press; :mod:`explorer.motion_time`)
       plus a realign's cost times its probability: the chance that the true normal is more than
       ``realign_angle_rad`` off the approach, from the posterior gradient covariance at the target.
+
+    The first touches go straight at the six faces of the prior box (:meth:`face_touches`), then
+    ``uniform`` ones until ``initial_touches`` contacts.
 
     Parameters as :class:`VarianceStrategy`, and the weights above; ``press_s`` and
     ``realign_angle_rad`` as in :class:`explorer.motion_time.TouchTimeModel` and the loop.
@@ -388,7 +444,7 @@ class EfficientStrategy(VarianceStrategy):
                  surface_samples: int = 800, pad_radius_m: float = 0.009,
                  edge_angles_rad: tuple[float, float] = (np.radians(15.0), np.radians(45.0)),
                  edge_weight: float = 0.5, reach_radius_m: float = 0.02, press_s: float = 3.5,
-                 realign_angle_rad: float = np.radians(15.0)):
+                 realign_angle_rad: float = np.radians(15.0), plane_radius_m: float = 0.05):
         super().__init__(grid, initial_touches, separation_m, avoid_radius_m, min_gradient, shortlist)
         self.surface_samples = surface_samples
         self.pad_radius_m = pad_radius_m
@@ -397,23 +453,52 @@ class EfficientStrategy(VarianceStrategy):
         self.reach_radius_m = reach_radius_m
         self.press_s = press_s
         self.realign_angle_rad = realign_angle_rad
+        self.plane_radius_m = plane_radius_m
         self.last_scores: dict[str, np.ndarray] = {}
+        self._faces_touched = np.zeros(len(self.FACE_AXES), bool)
+
+    #: Outward normals of the prior box's faces, in the order the first touches take them.
+    FACE_AXES = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]], float)
+
+    def face_touches(self, state: ExplorationState, count: int) -> list[Touch]:
+        """Touches at the centres of the prior box's faces, along their inward normals, not yet taken.
+
+        The first touches: straight at each face of the box the object fills, so a flat or boxy
+        object is met head on (rays from evenly spread directions meet a plate at grazing angles,
+        where the pad lands on its rim and the contact is off by millimetres).
+        """
+        touches = []
+        for k in np.flatnonzero(~self._faces_touched):
+            touch = ray_touch(state.prior, self.FACE_AXES[k], -float(k), self.name)
+            if _not_near(touch.target_m[None], state.unreachable_m, self.avoid_radius_m)[0]:
+                touches.append(touch)
+        return touches[:count]
+
+    def accepted(self, touch: Touch) -> None:
+        super().accepted(touch)
+        if touch.strategy == self.name:
+            face = self.FACE_AXES @ -touch.approach_dir > 1 - 1e-9
+            self._faces_touched |= face
 
     def propose(self, state: ExplorationState, count: int) -> list[Touch]:
         gp = state.gpis
         if (gp is None or gp.n_contacts < self.initial_touches or state.touches < self.initial_touches
                 or not gp.positive_definite):
-            return super().propose(state, count)
+            return self.face_touches(state, count) or super().propose(state, count)
         targets, approach, _, surface = self.projected_candidates(state)
         length = np.linalg.norm(approach, axis=1)
         targets, approach = targets[length > 1e-9], approach[length > 1e-9] / length[length > 1e-9, None]
         if len(surface) > self.surface_samples:
             surface = surface[np.linspace(0, len(surface) - 1, self.surface_samples).astype(int)]
         lo, hi = gp.region
+        spread = normal_spread_rad(gp, np.clip(targets, lo, hi), approach, self.pad_radius_m)
+        planar = np.zeros(len(targets), bool)
+        if self.plane_radius_m > 0 and gp.use_normals:
+            targets, approach, planar = planar_approach(gp.contact_points, gp.contact_normals, targets,
+                                                        approach, self.plane_radius_m)
         targets = np.clip(targets, lo, hi)
         reduction, gradient_variance = expected_variance_reduction(gp, targets, -approach, surface)
         reduction = np.maximum(reduction, 0.0)
-        spread = normal_spread_rad(gp, targets, approach, self.pad_radius_m)
         a0, a1 = self.edge_angles_rad
         p_edge = np.clip((spread - a0) / (a1 - a0), 0.0, 1.0)
         edge_factor = 1.0 - self.edge_weight * p_edge
@@ -431,7 +516,7 @@ class EfficientStrategy(VarianceStrategy):
             seconds = np.full(len(targets), self.press_s)
         seconds = seconds + p_realign * self.press_s
         scores = reduction * edge_factor * reach_factor / seconds
-        self.last_scores = dict(targets=targets, reduction=reduction, p_edge=p_edge, reach=reach_factor,
+        self.last_scores = dict(targets=targets, planar=planar, reduction=reduction, p_edge=p_edge, reach=reach_factor,
                                 p_realign=p_realign, seconds=seconds, score=scores)
         return (self._ranked_touches(targets, approach, scores, state, count)
                 or self._uniform.propose(state, count))

@@ -128,8 +128,43 @@ def test_slow_candidates_lose_to_fast_ones_of_equal_information():
     assert touch.target_m[0] <= 0.0
 
 
-def test_efficient_starts_uniform_and_variance_is_unchanged():
-    assert all(t.strategy == "uniform" for t in EfficientStrategy().propose(ExplorationState(PRIOR), 2))
+def test_variance_is_unchanged_by_the_shared_candidate_code():
     gp = _upper_sphere_gp()
     touches = VarianceStrategy().propose(ExplorationState(PRIOR, gp, touches=40), 3)
     assert [t.strategy for t in touches] == ["variance"] * 3
+
+
+def test_efficient_first_touches_each_face_of_the_prior_box_head_on():
+    strategy = EfficientStrategy()
+    seen = []
+    for _ in range(6):
+        touch = strategy.propose(ExplorationState(PRIOR, touches=len(seen)), 2)[0]
+        assert touch.strategy == "efficient"
+        outward = -touch.approach_dir
+        assert np.isclose(np.abs(outward).max(), 1.0)                   # along a box axis
+        np.testing.assert_allclose(touch.target_m, PRIOR.half_extent_m * outward, atol=1e-12)
+        seen.append(tuple(np.round(outward)))
+        strategy.accepted(touch)
+    assert len(set(seen)) == 6
+    assert strategy.propose(ExplorationState(PRIOR, touches=6), 1)[0].strategy == "uniform"
+
+
+def test_planar_approach_follows_a_flat_patch_and_leaves_a_sphere_alone():
+    from explorer.strategies import planar_approach
+
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(-0.03, 0.03, size=(8, 2))
+    plate = np.column_stack([xy, np.full(8, 0.005)])
+    up = np.tile([0.0, 0.0, 1.0], (8, 1))
+    target = np.array([[0.01, 0.0, 0.012]])                        # on a GPIS bulge 7 mm above the face
+    oblique = np.array([[0.6, 0.0, -0.8]])                          # its GPIS normal, 37 deg off
+    t, a, planar = planar_approach(plate, up, target, oblique, 0.05)
+    assert planar[0]
+    np.testing.assert_allclose(a[0], [0.0, 0.0, -1.0], atol=1e-12)
+    np.testing.assert_allclose(t[0], [0.01, 0.0, 0.005], atol=1e-12)
+    d = fibonacci_directions(200)
+    d = d[d[:, 2] > 0.7]
+    sphere_target = 0.04 * np.array([[0.3, 0.0, 0.954]])
+    t, a, planar = planar_approach(0.04 * d, d, sphere_target, -sphere_target / 0.04, 0.05)
+    assert not planar[0]
+    np.testing.assert_array_equal(t, sphere_target)
