@@ -408,6 +408,27 @@ def planar_approach(points: np.ndarray, normals: np.ndarray, targets: np.ndarray
     return targets, approach, planar
 
 
+def thin_axis_approach(prior: ObjectPrior, approach: np.ndarray, where: np.ndarray, thin_ratio: float,
+                       cone_rad: float) -> np.ndarray:
+    """Approach a thin object's broad faces along its thin axis.
+
+    When the prior box's smallest half extent is below ``thin_ratio`` times its largest (a plate,
+    a tray, a lid), its broad faces face that axis; approaches (k, 3) within ``cone_rad`` of it
+    (either sign) turn onto it, at the rows selected by the (k,) bool ``where``. Before the top
+    and bottom are covered, the GPIS of a plate is a rounded blob whose normals are 40-80 deg off
+    the faces, and the pad meets the face at a grazing angle, on its rim.
+    """
+    half = prior.half_extent_m
+    if half.min() >= thin_ratio * half.max():
+        return approach
+    axis = np.eye(3)[int(np.argmin(half))]
+    along = approach @ axis
+    turn = where & (np.abs(along) >= np.cos(cone_rad))
+    out = approach.copy()
+    out[turn] = np.sign(along[turn])[:, None] * axis
+    return out
+
+
 class EfficientStrategy(VarianceStrategy):
     """The touch that removes the most surface uncertainty per expected second.
 
@@ -425,7 +446,9 @@ class EfficientStrategy(VarianceStrategy):
     * reach factor ``1 - exp(-d^2 / 2 reach_radius_m^2)``, ``d`` the distance to the nearest target the
       planner could not reach (or that was blocked);
     * approach: along the GPIS normal, or, where the nearby contacts say the surface is flat, along
-      their plane's normal (:func:`planar_approach`, within ``plane_radius_m``; 0 switches it off);
+      their plane's normal (:func:`planar_approach`, within ``plane_radius_m``; 0 switches it off),
+      and on a thin object (prior box thinner than ``thin_ratio``) along its thin axis where the
+      GPIS normal is within ``thin_cone_rad`` of it (:func:`thin_axis_approach`; 0 switches it off);
     * time: the state's motion estimate (stand change, arm travel, press; :mod:`explorer.motion_time`)
       plus a realign's cost times its probability: the chance that the true normal is more than
       ``realign_angle_rad`` off the approach, from the posterior gradient covariance at the target.
@@ -444,7 +467,8 @@ class EfficientStrategy(VarianceStrategy):
                  surface_samples: int = 800, pad_radius_m: float = 0.009,
                  edge_angles_rad: tuple[float, float] = (np.radians(15.0), np.radians(45.0)),
                  edge_weight: float = 0.5, reach_radius_m: float = 0.02, press_s: float = 3.5,
-                 realign_angle_rad: float = np.radians(15.0), plane_radius_m: float = 0.05):
+                 realign_angle_rad: float = np.radians(15.0), plane_radius_m: float = 0.05,
+                 thin_ratio: float = 0.25, thin_cone_rad: float = np.radians(75.0)):
         super().__init__(grid, initial_touches, separation_m, avoid_radius_m, min_gradient, shortlist)
         self.surface_samples = surface_samples
         self.pad_radius_m = pad_radius_m
@@ -454,6 +478,8 @@ class EfficientStrategy(VarianceStrategy):
         self.press_s = press_s
         self.realign_angle_rad = realign_angle_rad
         self.plane_radius_m = plane_radius_m
+        self.thin_ratio = thin_ratio
+        self.thin_cone_rad = thin_cone_rad
         self.last_scores: dict[str, np.ndarray] = {}
         self._faces_touched = np.zeros(len(self.FACE_AXES), bool)
 
@@ -496,6 +522,7 @@ class EfficientStrategy(VarianceStrategy):
         if self.plane_radius_m > 0 and gp.use_normals:
             targets, approach, planar = planar_approach(gp.contact_points, gp.contact_normals, targets,
                                                         approach, self.plane_radius_m)
+        approach = thin_axis_approach(state.prior, approach, ~planar, self.thin_ratio, self.thin_cone_rad)
         targets = np.clip(targets, lo, hi)
         reduction, gradient_variance = expected_variance_reduction(gp, targets, -approach, surface)
         reduction = np.maximum(reduction, 0.0)

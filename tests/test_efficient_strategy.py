@@ -168,3 +168,15 @@ def test_planar_approach_follows_a_flat_patch_and_leaves_a_sphere_alone():
     t, a, planar = planar_approach(0.04 * d, d, sphere_target, -sphere_target / 0.04, 0.05)
     assert not planar[0]
     np.testing.assert_array_equal(t, sphere_target)
+
+
+def test_thin_axis_approach_turns_oblique_approaches_onto_a_plate_only():
+    from explorer.strategies import thin_axis_approach
+
+    approach = np.array([[0.8, 0.0, -0.6], [0.0, -0.9, 0.436], [1.0, 0.0, 0.0]])
+    approach /= np.linalg.norm(approach, axis=1, keepdims=True)
+    plate = ObjectPrior(np.zeros(3), np.array([0.1, 0.1, 0.01]))
+    out = thin_axis_approach(plate, approach, np.ones(3, bool), 0.25, np.radians(75))
+    np.testing.assert_allclose(out[:2], [[0, 0, -1.0], [0, 0, 1.0]])
+    np.testing.assert_array_equal(out[2], approach[2])             # the rim: left as it was
+    np.testing.assert_array_equal(thin_axis_approach(PRIOR, approach, np.ones(3, bool), 0.25, 1.3), approach)
