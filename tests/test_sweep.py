@@ -136,6 +136,7 @@ def test_the_command_line_rejects_bad_arguments(tmp_path, capsys):
     for args, message in ((["--strategies", "greedy"], "unknown strategy 'greedy'"),
                           (["--objects", "teapot"], "unknown object 'teapot'"),
                           (["--seeds", "0"], "--seeds must be at least 1"),
+                          (["--first-seed", "-1"], "--first-seed must be >= 0"),
                           (["--objects", "sphere,,box"], "empty name")):
         with pytest.raises(SystemExit) as exit_info:
             sweep_main(args + ["--out", str(tmp_path)])
