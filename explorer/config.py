@@ -47,7 +47,7 @@ from typing import Any
 
 ROBOT_BACKENDS = ("sim", "serial", "emulated")
 #: The strategies' names (``explorer.strategies.STRATEGIES`` is keyed by them; a test ties the two).
-STRATEGY_NAMES = ("variance", "random", "uniform")
+STRATEGY_NAMES = ("variance", "efficient", "random", "uniform")
 SENSOR_BACKENDS = ("sim", "i2c", "uart", "mcu", "emulated")
 BMP280_ADDRESSES = (0x76, 0x77)
 BNO055_ADDRESSES = (0x28, 0x29)

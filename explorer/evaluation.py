@@ -61,3 +61,51 @@ def jsonable(value):
     if isinstance(value, Path):
         return str(value)
     return value
+
+
+def top_face_height_error(mesh, truth, inset_m: float = 0.009, spacing_m: float = 0.002) -> dict:
+    """How a flat surface is scored when it lies on a table and only its top face is explored.
+
+    The top face is the truth's faces whose outward normal points up (n_z > 0.99), at height
+    ``z_top``. Over that face, inset by ``inset_m`` (the pad's radius: the rim itself is an edge,
+    not the flat surface), every ``spacing_m`` a vertical ray from above meets the reconstruction's
+    highest surface at ``z``; the error there is ``z - z_top``. Where the ray misses the
+    reconstruction the error is the distance from the true point to the reconstruction.
+
+    Parameters
+    ----------
+    mesh, truth : trimesh.Trimesh, object frame (z up), metres
+
+    Returns
+    -------
+    dict
+        ``top_face_rmse_mm`` (RMS of the errors), ``top_face_max_mm`` (largest |error|),
+        ``top_face_missed_fraction`` (rays that missed the reconstruction), ``top_face_points``.
+    """
+    import trimesh
+
+    up = truth.face_normals[:, 2] > 0.99
+    if not up.any():
+        raise ValueError("the reference has no upward face (n_z > 0.99): no top face to score")
+    top = truth.submesh([np.flatnonzero(up)], append=True)
+    z_top = float(np.average(top.triangles_center[:, 2], weights=top.area_faces))
+    lo, hi = top.bounds[0, :2] + inset_m, top.bounds[1, :2] - inset_m
+    xs = np.arange(lo[0], hi[0] + 1e-12, spacing_m)
+    ys = np.arange(lo[1], hi[1] + 1e-12, spacing_m)
+    grid = np.stack(np.meshgrid(xs, ys, indexing="ij"), -1).reshape(-1, 2)
+    points = np.column_stack([grid, np.full(len(grid), z_top)])
+    inside = top.ray.intersects_any(points + [0.0, 0.0, 1.0], np.tile([0.0, 0.0, -1.0], (len(points), 1)))
+    points = points[inside]
+    above = float(mesh.bounds[1, 2] - z_top) + 0.01
+    origins = points + [0.0, 0.0, max(above, 0.01)]
+    locations, ray_index, _ = mesh.ray.intersects_location(origins, np.tile([0.0, 0.0, -1.0], (len(points), 1)))
+    height = np.full(len(points), -np.inf)
+    np.maximum.at(height, ray_index, locations[:, 2])
+    error = height - z_top
+    missed = ~np.isfinite(height)
+    if missed.any():
+        _, distance, _ = trimesh.proximity.closest_point(mesh, points[missed])
+        error[missed] = distance
+    return dict(top_face_rmse_mm=float(1e3 * np.sqrt(np.mean(error ** 2))),
+                top_face_max_mm=float(1e3 * np.max(np.abs(error))),
+                top_face_missed_fraction=float(missed.mean()), top_face_points=int(len(points)))

@@ -31,6 +31,7 @@ import numpy as np
 from explorer.config import ExplorationConfig
 from explorer.contact import LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, wants_realign
 from explorer.evidence import SurfaceEvidence
+from explorer.motion_time import MotionTimeEstimator
 from explorer.planner import ApproachPlan, ApproachPlanner
 from explorer.rig import Rig
 from explorer.strategies import ExplorationState, TouchStrategy
@@ -194,7 +195,7 @@ class ExplorationLoop:
         self.detector = detector or PressureContactDetector()
         self.contact_pipeline = ContactPipeline(rig.kinematics, rig.pad, settling, doubt=config.doubt_rule())
         self.evidence = SurfaceEvidence(gpis, config.free_space_value, config.free_space_noise)
-        self.state = ExplorationState(rig.prior)
+        self.state = ExplorationState(rig.prior, motion=MotionTimeEstimator(planner, rig.positioner))
         self.records: list[TouchOutcome] = []
         self.times = PhaseTimes()
         self._contact_readings: list[Reading] = []
@@ -343,7 +344,8 @@ class ExplorationLoop:
         if record.kind == "contact":
             self._update_gpis(record.position_m, record.normal, self._normal_noise(record))
         elif record.kind == "miss":
-            record.free_space_m = self.evidence.inside_bounds(self.positioner.to_object(plan.path_world_m))
+            swept = self._swept(plan, approach.q)
+            record.free_space_m = self.evidence.inside_bounds(self.positioner.to_object(swept))
             self._add_free_space(record.free_space_m)
         return record
 
@@ -364,6 +366,20 @@ class ExplorationLoop:
                 self.recorder.event("transfer_blocked", self.robot.time_s(), message=f"{attempt}: {err}")
         self.robot.move_joints(self.planner.rest_q, speed)
         return False
+
+    def _swept(self, plan: ApproachPlan, q_end: np.ndarray) -> np.ndarray:
+        """(k, 3) world points of the approach line the pad passed on a miss.
+
+        The whole line when the pad got to its end; otherwise (another link met the object and
+        held the arm back, so the pad never pressed) only the points at least ``-free_space_value``
+        (the pad's half width) behind where it stopped: the surface may be just beyond it.
+        """
+        line = plan.path_world_m
+        along = (line - line[0]) @ plan.approach_world
+        reached = float((self.kin.forward_kinematics(q_end).position_m - line[0]) @ plan.approach_world)
+        if reached >= along[-1] - 0.002:
+            return line
+        return line[along <= reached + self.config.free_space_value]
 
     def _retract(self, plan: ApproachPlan) -> None:
         """Back to the standoff; if a contact blocks the direct move, back out along the path."""

@@ -265,6 +265,27 @@ class GPIS:
         full = self._joint(self._obs_points[used], np.asarray(x, float))[:, :, :, 0]
         return full[index, comps]
 
+    def joint_cross_covariance(self, x: np.ndarray) -> np.ndarray:
+        """Covariance between every observation row and ``[f, grad f]`` at (m, 3) points.
+
+        What a contact at ``x`` would add is a block of these columns (value, and gradient with
+        normals), so a strategy can score hypothetical contacts without adding them.
+
+        Returns
+        -------
+        (rows, m, 4) float64
+        """
+        self._require_fit()
+        used, index = np.unique(self._row_point, return_inverse=True)
+        full = self._joint(self._obs_points[used], np.asarray(x, float))  # (u, 4, m, 4)
+        return full[index, self._row_comp]
+
+    def prior_joint_covariance(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """(m, 4, n, 4) prior covariance of ``[f, grad f]`` at (m, 3) ``x`` and (n, 3) ``y``
+        (kernel plus trend, as the posterior uses)."""
+        self._require_fit()
+        return self._joint(np.asarray(x, float), np.asarray(y, float))
+
     def log_marginal_likelihood(self) -> float:
         """``log p(y)`` of all observations under the prior (kernel, trend, noise), nats.
 

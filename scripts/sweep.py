@@ -23,7 +23,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--units", choices=("m", "cm", "mm", "in"), default="m",
                         help="length unit of the mesh files in --objects (default m)")
     parser.add_argument("--strategies", default="random,variance", help="comma-separated")
-    parser.add_argument("--seeds", type=int, default=5, help="number of seeds: 0 .. N-1")
+    parser.add_argument("--seeds", type=int, default=5, help="number of seeds: S .. S+N-1 (S = --first-seed)")
+    parser.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
     parser.add_argument("--touches", type=int, default=50, help="touch budget of each run")
     parser.add_argument("--workers", type=int, default=2, help="runs at a time")
     parser.add_argument("--out", type=Path, default=Path("results/sweep"))
@@ -39,6 +40,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.seeds < 1:
         parser.error("--seeds must be at least 1")
+    if args.first_seed < 0:
+        parser.error("--first-seed must be >= 0")
     if args.workers < 1:
         parser.error("--workers must be at least 1")
     for option, value, minimum in (("--touches", args.touches, 1), ("--eval-every", args.eval_every, 0),
@@ -53,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
         names = tuple(objects.in_metres(n, args.units) if objects.is_mesh_file_name(n) else n
                       for n in _names(args.objects))
         config = SweepConfig(objects=names, strategies=_names(args.strategies),
-                             seeds=tuple(range(args.seeds)),
+                             seeds=tuple(range(args.first_seed, args.first_seed + args.seeds)),
                              normals=(True, False) if args.no_normals_too else (True,),
                              touches=args.touches, robot=args.robot, eval_every=args.eval_every,
                              mesh_resolution=args.mesh_resolution, profile=args.profile)

@@ -100,3 +100,19 @@ def test_a_restored_loop_has_the_field_of_the_finished_one(finished):
     fresh.restore(records)
     points = np.random.default_rng(0).uniform(*loop.gpis.bounds, size=(100, 3))
     np.testing.assert_allclose(fresh.gpis.mean(points), loop.gpis.mean(points), rtol=0, atol=1e-12)
+
+
+def test_a_miss_held_back_short_of_its_line_sweeps_only_what_the_pad_passed(finished):
+    """Another link met the object and held the arm back: the pad never reached the line's end, so
+    free space stops the pad's half width behind where it stopped; a full miss sweeps the line."""
+    from explorer.planner import ApproachPlan
+    from explorer.positioner import StandPose
+
+    loop, _, _ = finished
+    line = np.column_stack([np.zeros(7), np.zeros(7), np.linspace(0.1, 0.04, 7)])   # 1 cm steps, down
+    plan = ApproachPlan(Touch(line[3], np.array([0.0, 0.0, -1.0])), StandPose(), line[3],
+                        np.array([0.0, 0.0, -1.0]), line, line)
+    np.testing.assert_array_equal(loop._swept(plan, line[-1]), line)
+    held = loop._swept(plan, np.array([0.0, 0.0, 0.065]))                # stopped 3.5 cm along
+    np.testing.assert_array_equal(held, line[:3])
+    assert held[-1, 2] - 0.065 >= -loop.config.free_space_value

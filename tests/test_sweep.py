@@ -102,6 +102,7 @@ def test_the_summary_equals_statistics_computed_from_the_csv(pool_sweep):
     angle = [float(r["normal_rmse_deg"]) for r in finished]
     coverage = [float(r["coverage"]) for r in finished]
     reached = [float(r["touches_to_3mm"]) for r in finished if r["touches_to_3mm"]]
+    reached_2mm = [float(r["touches_to_2mm"]) for r in finished if r["touches_to_2mm"]]
     assert len(finished) == 2 and statistics.pstdev(position) > 0
     def mean_of(key, digits):
         return f"{statistics.fmean(float(r[key]) for r in finished):.{digits}f}"
@@ -111,7 +112,8 @@ def test_the_summary_equals_statistics_computed_from_the_csv(pool_sweep):
                 f"{statistics.fmean(angle):.1f} +- {statistics.pstdev(angle):.1f}",
                 mean_of("chamfer_l1_mm", 2), mean_of("chamfer_l2_mm", 2), mean_of("fscore_1mm", 3),
                 mean_of("fscore_2mm", 3), mean_of("fscore_5mm", 3), mean_of("normal_consistency", 3),
-                f"{statistics.fmean(coverage):.3f}", f"{statistics.fmean(reached):.1f} (2/2)"]
+                f"{statistics.fmean(coverage):.3f}", f"{statistics.fmean(reached):.1f} (2/2)",
+                (f"{statistics.fmean(reached_2mm):.1f}" if reached_2mm else "-") + f" ({len(reached_2mm)}/2)"]
     table = [line.strip("|").split("|") for line in report.markdown_path.read_text().splitlines()
              if line.startswith("| sphere ")]
     assert [[cell.strip() for cell in row] for row in table] == [expected]
@@ -134,6 +136,7 @@ def test_the_command_line_rejects_bad_arguments(tmp_path, capsys):
     for args, message in ((["--strategies", "greedy"], "unknown strategy 'greedy'"),
                           (["--objects", "teapot"], "unknown object 'teapot'"),
                           (["--seeds", "0"], "--seeds must be at least 1"),
+                          (["--first-seed", "-1"], "--first-seed must be >= 0"),
                           (["--objects", "sphere,,box"], "empty name")):
         with pytest.raises(SystemExit) as exit_info:
             sweep_main(args + ["--out", str(tmp_path)])
@@ -248,3 +251,16 @@ def test_an_interrupted_pool_stops_its_workers_without_finishing_queued_runs(bro
         run_in_pool(jobs, 1, interrupt)
     assert multiprocessing.active_children() == []
     assert not is_complete(tmp_path / "sphere")  # queued to the worker, but not run to the end
+
+
+def test_touches_to_reach_takes_the_first_evaluation_at_or_below_each_level():
+    """A synthetic error curve (given out of order): 3 mm is first reached at 20 touches, 2 mm at
+    40 although the curve rises above 2 mm again afterwards; 1 mm never."""
+    from explorer.sweep import SECOND_TARGET_RMSE_MM, TARGET_RMSE_MM, touches_to_reach
+
+    errors = {10: 5.0, 20: 3.0, 30: 2.4, 40: 1.9, 50: 2.2, 60: 1.5}
+    curve = [dict(touches=n, position_rmse_mm=e, normal_rmse_deg=0.0) for n, e in reversed(errors.items())]
+    assert touches_to_reach(curve, TARGET_RMSE_MM) == 20
+    assert touches_to_reach(curve, SECOND_TARGET_RMSE_MM) == 40
+    assert touches_to_reach(curve, 1.0) is None
+    assert touches_to_reach([], 3.0) is None

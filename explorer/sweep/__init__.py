@@ -6,12 +6,12 @@ is made of: :func:`plan_runs`, :func:`is_complete`, :func:`run_in_pool`, :func:`
 """
 from explorer.sweep.execution import RunJob, RunOutcome, execute_run, run_in_pool, run_on_ray
 from explorer.sweep.plan import SweepConfig, SweepRun, is_complete, plan_runs, run_dir
-from explorer.sweep.results import (COLUMNS, TARGET_RMSE_MM, SummaryRow, read_csv, summarise,
-                                    touches_to_reach)
+from explorer.sweep.results import (COLUMNS, SECOND_TARGET_RMSE_MM, TARGET_RMSE_MM, SummaryRow, read_csv,
+                                    summarise, touches_to_reach)
 from explorer.sweep.runner import SweepReport, run_sweep
 
 __all__ = [
-    "COLUMNS", "RunJob", "RunOutcome", "SummaryRow", "SweepConfig", "SweepReport", "SweepRun",
+    "COLUMNS", "RunJob", "SECOND_TARGET_RMSE_MM", "RunOutcome", "SummaryRow", "SweepConfig", "SweepReport", "SweepRun",
     "TARGET_RMSE_MM", "execute_run", "is_complete", "plan_runs", "read_csv", "run_dir",
     "run_in_pool", "run_on_ray", "run_sweep", "summarise", "touches_to_reach",
 ]
