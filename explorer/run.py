@@ -22,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from explorer.coverage import reachable_fraction
 from explorer.evaluation import jsonable
 from explorer.config import ExplorationConfig
 from explorer.contact import LOOP_SETTLING
+from explorer.coverage import reach_breakdown
 from explorer.loop import ExplorationLoop, LoopConfig
 from explorer.observer import ObservedStrategy
 from explorer.outputs import add_errors, write_figures, write_json, write_mesh
@@ -266,10 +266,11 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
             recorder.reconstruction(mesh, gpis.n_contacts, recorder.latest_time_s)
         add_errors(metrics, mesh, truth, contacts, normals)
         if truth is not None:
-            steps = 48
+            steps = 64
             report = None if status is None else (lambda done: status("reachable fraction", done, steps))
-            metrics["reachable_fraction"] = reachable_fraction(planner, truth, n_samples=steps, seed=settings.seed,
-                                                               progress=report)
+            reach = reach_breakdown(truth, contacts, planner, n_samples=steps, seed=settings.seed, progress=report)
+            metrics["reachable_fraction"] = reach.reachable
+            metrics["reach_breakdown"] = reach.as_dict()
         if mesh is not None:
             curve_points = [(c["touches"], c["position_rmse_mm"], c["normal_rmse_deg"]) for c in metrics["error_curve"]]
             try:
