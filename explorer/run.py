@@ -8,7 +8,10 @@ Writes to the output directory, as the run goes:
 and at the end (also after an interruption, from what was recorded):
 
 * ``reconstruction.ply`` the GPIS mean surface, object frame;
-* ``metrics.json``       errors against the ground truth, touches, misses, coverage, times;
+* ``metrics.json``       errors against the ground truth, touches, misses, coverage, times, and with a
+                         ground truth ``reach_breakdown`` (:class:`explorer.coverage.ReachBreakdown`:
+                         surface fractions where the pad does not fit, the arm cannot reach, the stand
+                         hides it, reachable but untouched, touched) and ``reachable_fraction``;
 * ``reconstruction_error.png``, ``error_vs_touches.png``, ``potential_slice.png``.
 """
 from __future__ import annotations
