@@ -275,3 +275,35 @@ def reach_breakdown(mesh, contacts: np.ndarray, planner=None, radius_m: float = 
             progress(i + 1)
     fractions = {name: float(np.mean(label == name)) for name in REACH_CLASSES}
     return ReachBreakdown(**fractions, samples=len(points))
+
+
+def coverage_ceiling(mesh, contacts: int, radius_m: float = 0.01, per_disc: int = 400, seed: int = 0) -> float:
+    """The most coverage ``contacts`` contacts can give: an upper bound, whatever their placement.
+
+    Each contact covers at most the largest surface area found within ``radius_m`` of one surface
+    point (about pi r^2 on a flat face; up to twice that where a wall thinner than the radius
+    counts on both sides), so ``contacts`` of them cover at most that many times it.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh, object frame, metres
+    contacts : int
+    per_disc : int
+        Surface samples per flat disc of ``radius_m`` (the bound's own sampling error is about
+        ``3 / sqrt(per_disc)``, upwards: the largest of many noisy counts).
+
+    Returns
+    -------
+    float
+        In [0, 1].
+    """
+    from scipy.spatial import cKDTree
+
+    from objects.sampling import sample_surface
+
+    n_samples = int(min(400_000, per_disc * mesh.area / (np.pi * radius_m**2)))
+    points, _ = sample_surface(mesh, n_samples, np.random.default_rng(seed))
+    tree = cKDTree(points)
+    probe = points[np.random.default_rng(seed + 1).choice(len(points), min(2000, len(points)), replace=False)]
+    largest_share = max(len(near) for near in tree.query_ball_point(probe, radius_m)) / len(points)
+    return float(min(1.0, contacts * largest_share))

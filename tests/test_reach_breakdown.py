@@ -88,3 +88,14 @@ def test_approach_directions_are_head_on_then_tilted():
     angles = np.degrees(np.arccos(np.clip(dirs @ -normal, -1, 1)))
     assert len(dirs) == 1 + tool.azimuths * (len(tool.tilts_rad) - 1)
     assert np.all(np.diff(angles) > -1e-9)
+
+
+def test_coverage_ceiling_is_contacts_times_a_cap_on_a_sphere_and_caps_at_one():
+    from explorer.coverage import coverage_ceiling
+
+    sphere = trimesh.creation.icosphere(subdivisions=5, radius=0.1)
+    cap_share = np.pi * 0.01**2 / (4 * np.pi * 0.1**2)   # a 1 cm ball cuts a cap of area pi r^2
+    ceiling = coverage_ceiling(sphere, 10)
+    assert 10 * cap_share * 0.97 < ceiling < 10 * cap_share * 1.25   # the largest of noisy counts: upwards
+    assert coverage_ceiling(sphere, 10_000) == 1.0
+    assert coverage_ceiling(sphere, 0) == 0.0
