@@ -21,17 +21,17 @@ def run(request, tmp_path_factory):
 
 def test_contacts_spread_over_the_surface(run):
     m = run.metrics
-    assert m["contacts"] >= TOUCHES // 4   # bowl seed 0: 6 (realign and misses take the rest)
+    assert m["contacts"] >= TOUCHES // 4   # seed 0: bowl 6, wedge 7 (realign and misses take the rest)
     # contacts 1 cm apart at least (the strategies keep 1-1.5 cm between targets) cover at least a
     # third of what the same number could at best
     assert m["coverage"] >= 0.3 * m["coverage_ceiling"] > 0.0
-    assert m["contact_position_error_rms_mm"] < 5.0
+    assert m["contact_position_error_rms_mm"] < 8.0   # seed 0: bowl 2.3, wedge 4.3 (pad on edges)
 
 
 def test_the_reconstruction_is_bounded(run):
     m = run.metrics
-    assert m["position_rmse_mm"] < 35.0   # 12 touches on a 12-20 cm object: its rough extent (bowl: 19)
-    assert m["fscore_5mm"] > 0.1   # bowl seed 0: 0.30
+    assert m["position_rmse_mm"] < 35.0   # 12 touches on a 12-20 cm object: its rough extent (seed 0: bowl 19, wedge 15)
+    assert m["fscore_5mm"] > 0.1   # seed 0: bowl 0.30, wedge 0.37
 
 
 def test_the_reach_breakdown_accounts_for_the_whole_surface(run):
