@@ -50,6 +50,16 @@ class PlannerConfig:
     retreat_offsets_m : tuple of (3,) float
         Candidate pad positions of the rest pose relative to the stand centre (world frame: back
         towards the robot, out to the arm's side, up); the arm waits there while the stand turns.
+    approach_tilts_rad : tuple of float
+        When no stand pose gives a plan along the touch's own approach, approaches tilted this far
+        from it are tried (the spring turns the pad onto the surface; the touch keeps its intended
+        approach, so the realign rule still compares the measured normal with it). Undersides,
+        insides and the far side of tall parts are often out of reach head-on and within reach
+        tilted. Empty: head-on only.
+    tilt_azimuths : int
+        Tilted directions per tilt angle (evenly spread around the approach).
+    tilted_to_try : int
+        Tilted directions planned (best reachability first) before the touch counts as unreachable.
     """
 
     standoff_m: float = 0.03
@@ -61,6 +71,9 @@ class PlannerConfig:
     poses_to_try: int = 3
     arm_clearance_m: float = 0.04
     retreat_offsets_m: tuple = ((-0.1, -0.1, 0.15), (0.0, -0.15, 0.15), (-0.15, 0.0, 0.05))
+    approach_tilts_rad: tuple = (np.radians(20.0), np.radians(35.0))
+    tilt_azimuths: int = 8
+    tilted_to_try: int = 4
 
 
 @dataclass(frozen=True)
@@ -70,7 +83,8 @@ class ApproachPlan:
     Attributes
     ----------
     touch : Touch
-        The touch (object frame).
+        The touch (object frame); its ``approach_dir`` is the intended one (the inward normal the
+        strategy expects), which ``approach_world`` may differ from by a tilt.
     stand : StandPose
         Stand pose to use.
     target_world_m, approach_world : (3,) float
@@ -79,6 +93,8 @@ class ApproachPlan:
         Joint waypoints: standoff first, then along the approach line to ``depth_m`` beyond the target.
     path_world_m : (k, 3) float
         Pad positions of the waypoints (world).
+    tilt_rad : float
+        Angle between the pad's travel and the touch's intended approach (0: head-on).
     """
 
     touch: Touch
@@ -87,6 +103,7 @@ class ApproachPlan:
     approach_world: np.ndarray
     path_q: np.ndarray
     path_world_m: np.ndarray
+    tilt_rad: float = 0.0
 
     @property
     def standoff_q(self) -> np.ndarray:
@@ -167,22 +184,50 @@ class ApproachPlanner:
         return scores
 
     # ------------------------------------------------------------------ planning
-    def plan(self, touch: Touch, seed_q=None) -> ApproachPlan | None:
-        """A plan for ``touch``, or None when no stand pose makes it reachable."""
+    def plan(self, touch: Touch, seed_q=None, tilted: bool = True) -> ApproachPlan | None:
+        """A plan for ``touch``, or None when no stand pose makes it reachable (head-on, or with
+        ``tilted`` along one of the tilted approaches, see :class:`PlannerConfig`)."""
         cfg = self.config
         seed = self.rest_q if seed_q is None else np.asarray(seed_q, float)
         seed = np.clip(seed, self.kin.lower_rad, self.kin.upper_rad)  # encoders may read past a limit
         for score, pose in self.pose_scores(touch.approach_dir)[:cfg.poses_to_try]:
             if score <= 0.0:
                 break
-            plan = self._plan_at(touch, pose, seed)
+            plan = self._plan_at(touch, pose, seed, touch.approach_dir)
+            if plan is not None:
+                return plan
+        if not tilted:
+            return None
+        # Head-on failed: the tilted directions whose best stand pose scores highest.
+        ranked = []
+        for tilt, direction in self.tilted_approaches(touch.approach_dir):
+            score, pose = self.pose_scores(direction)[0]
+            if score > 0.0:
+                ranked.append((-score, tilt, len(ranked), direction, pose))
+        ranked.sort(key=lambda r: r[:3])
+        for _, tilt, _, direction, pose in ranked[:cfg.tilted_to_try]:
+            plan = self._plan_at(touch, pose, seed, direction, tilt)
             if plan is not None:
                 return plan
         return None
 
-    def _plan_at(self, touch: Touch, pose: StandPose, seed: np.ndarray) -> ApproachPlan | None:
+    def tilted_approaches(self, approach: np.ndarray) -> list[tuple[float, np.ndarray]]:
+        """(tilt, unit direction) pairs around ``approach`` (object frame), smaller tilts first."""
+        a = np.asarray(approach, float) / np.linalg.norm(approach)
+        helper = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        u = np.cross(a, helper)
+        u /= np.linalg.norm(u)
+        v = np.cross(a, u)
+        out = []
+        for tilt in self.config.approach_tilts_rad:
+            for phi in 2 * np.pi * np.arange(self.config.tilt_azimuths) / self.config.tilt_azimuths:
+                out.append((float(tilt), np.cos(tilt) * a + np.sin(tilt) * (np.cos(phi) * u + np.sin(phi) * v)))
+        return out
+
+    def _plan_at(self, touch: Touch, pose: StandPose, seed: np.ndarray, approach_object: np.ndarray,
+                 tilt_rad: float = 0.0) -> ApproachPlan | None:
         cfg = self.config
-        target_w, approach_w = self.positioner.to_world(touch.target_m[None], touch.approach_dir[None], pose)
+        target_w, approach_w = self.positioner.to_world(touch.target_m[None], np.asarray(approach_object)[None], pose)
         target_w, approach_w = target_w[0], approach_w[0]
         depth = cfg.depth_m if touch.depth_m is None else touch.depth_m
         points = approach_line(target_w, approach_w, cfg, depth)
@@ -197,7 +242,7 @@ class ApproachPlanner:
             return None
         if self.arm_intrudes(q[0], pose):
             return None
-        return ApproachPlan(touch, pose, target_w, approach_w, q, points)
+        return ApproachPlan(touch, pose, target_w, approach_w, q, points, tilt_rad)
 
     def arm_points(self, q: np.ndarray, per_segment: int = 5) -> np.ndarray:
         """(k, 3) world points along the arm from the shoulder to the wrist (segments sampled)."""

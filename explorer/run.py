@@ -8,7 +8,11 @@ Writes to the output directory, as the run goes:
 and at the end (also after an interruption, from what was recorded):
 
 * ``reconstruction.ply`` the GPIS mean surface, object frame;
-* ``metrics.json``       errors against the ground truth, touches, misses, coverage, times;
+* ``metrics.json``       errors against the ground truth, touches, misses, coverage, times, and with a
+                         ground truth ``reach_breakdown`` (:class:`explorer.coverage.ReachBreakdown`:
+                         surface fractions where the pad does not fit, the arm cannot reach, the stand
+                         hides it, reachable but untouched, touched), ``reachable_fraction`` and
+                         ``coverage_ceiling`` (the most coverage the run's contacts could give);
 * ``reconstruction_error.png``, ``error_vs_touches.png``, ``potential_slice.png``.
 """
 from __future__ import annotations
@@ -22,10 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from explorer.coverage import reachable_fraction
 from explorer.evaluation import jsonable
 from explorer.config import ExplorationConfig
 from explorer.contact import LOOP_SETTLING
+from explorer.coverage import coverage_ceiling, reach_breakdown
 from explorer.loop import ExplorationLoop, LoopConfig
 from explorer.observer import ObservedStrategy
 from explorer.outputs import add_errors, write_figures, write_json, write_mesh
@@ -287,10 +291,12 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
             recorder.reconstruction(mesh, gpis.n_contacts, recorder.latest_time_s)
         add_errors(metrics, mesh, truth, contacts, normals)
         if truth is not None:
-            steps = 48
+            steps = 64
             report = None if status is None else (lambda done: status("reachable fraction", done, steps))
-            metrics["reachable_fraction"] = reachable_fraction(planner, truth, n_samples=steps, seed=settings.seed,
-                                                               progress=report)
+            reach = reach_breakdown(truth, contacts, planner, n_samples=steps, seed=settings.seed, progress=report)
+            metrics["reachable_fraction"] = reach.reachable
+            metrics["reach_breakdown"] = reach.as_dict()
+            metrics["coverage_ceiling"] = coverage_ceiling(truth, len(contacts))
         if mesh is not None:
             curve_points = [(c["touches"], c["position_rmse_mm"], c["normal_rmse_deg"]) for c in metrics["error_curve"]]
             try:

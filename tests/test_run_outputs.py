@@ -57,15 +57,15 @@ def test_ctrl_c_while_the_outputs_are_written_keeps_the_metrics_and_closes_the_s
 
     steps = []
 
-    def interrupted(planner, mesh, n_samples, seed, progress=None):
+    def interrupted(mesh, contacts, planner, n_samples, seed, progress=None):
         progress(1)
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(explorer.run, "reachable_fraction", interrupted)
+    monkeypatch.setattr(explorer.run, "reach_breakdown", interrupted)
     with pytest.raises(KeyboardInterrupt):
         explore(RunSettings(touches=2, eval_every=0, **SPHERE), tmp_path,
                 status=lambda step, done, total: steps.append((step, done, total)))
-    assert steps == [("reachable fraction", 1, 48)]
+    assert steps == [("reachable fraction", 1, 64)]
     metrics = json.loads((tmp_path / "metrics.json").read_text())
     assert metrics["touches"] == 2 and "reachable_fraction" not in metrics
     assert "interrupted_while" in metrics and metrics["position_rmse_mm"] > 0.0
@@ -81,7 +81,7 @@ def test_the_command_reports_ctrl_c_in_one_line_and_exit_130(tmp_path, monkeypat
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(explorer.run, "reachable_fraction", interrupted)
+    monkeypatch.setattr(explorer.run, "reach_breakdown", interrupted)
     out = tmp_path / "run"
     assert main(["--object", "sphere", "--touches", "1", "--out", str(out)]) == 130
     err = capsys.readouterr().err
