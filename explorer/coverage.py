@@ -24,7 +24,6 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from explorer.planner import PlannerConfig
 from explorer.touch import Touch
 
 #: The classes of :class:`ReachBreakdown`, in the order they are assigned.
@@ -52,9 +51,8 @@ class ToolEnvelope:
     hand_radius_m, hand_end_m : float
         The hand: a cylinder from ``finger_end_m`` to ``hand_end_m`` behind the face.
     tilts_rad : tuple of float
-        Angles between the approach and the inward normal that are tried: head-on and the
-        planner's tilts (``PlannerConfig.approach_tilts_rad``; the spring turns the pad onto the
-        surface up to about 45 deg).
+        Angles between the approach and the inward normal that are tried (the spring turns the
+        pad onto the surface up to about 45 deg); "reachable" means reachable along one of them.
     azimuths : int
         Approach directions per non-zero tilt.
     hover_m : float
@@ -70,7 +68,7 @@ class ToolEnvelope:
     finger_end_m: float = 0.0437
     hand_radius_m: float = 0.015
     hand_end_m: float = 0.1137
-    tilts_rad: tuple = (0.0,) + PlannerConfig.approach_tilts_rad
+    tilts_rad: tuple = (0.0, np.radians(20.0), np.radians(35.0))
     azimuths: int = 8
     hover_m: float = 0.003
     clearance_m: float = 0.0012

@@ -55,7 +55,9 @@ class PlannerConfig:
         from it are tried (the spring turns the pad onto the surface; the touch keeps its intended
         approach, so the realign rule still compares the measured normal with it). Undersides,
         insides and the far side of tall parts are often out of reach head-on and within reach
-        tilted. Empty: head-on only.
+        tilted. Empty (the default): head-on only; e.g. ``(radians(20), radians(35))`` turns the
+        fallback on (off by default: the contact quality of tilted presses is unmeasured, and on the
+        emulated hardware rig they pressed to 27 N against a 7 N bound).
     tilt_azimuths : int
         Tilted directions per tilt angle (evenly spread around the approach).
     tilted_to_try : int
@@ -71,7 +73,7 @@ class PlannerConfig:
     poses_to_try: int = 3
     arm_clearance_m: float = 0.04
     retreat_offsets_m: tuple = ((-0.1, -0.1, 0.15), (0.0, -0.15, 0.15), (-0.15, 0.0, 0.05))
-    approach_tilts_rad: tuple = (np.radians(20.0), np.radians(35.0))
+    approach_tilts_rad: tuple = ()
     tilt_azimuths: int = 8
     tilted_to_try: int = 4
 
