@@ -5,7 +5,7 @@
 * :mod:`common.sentences` - ``$...*CS`` line framing of the serial protocols;
 * :mod:`common.clock`, :mod:`common.fake_port`, :mod:`common.pyserial_port` - a virtual clock and
   in-memory serial ports for the emulators; :mod:`common.serial_urls` - pyserial URL handlers;
-* :mod:`common.plain_json` - numpy values as plain JSON;
+* :mod:`common.plain_json` - numpy values as plain JSON; :mod:`common.lazy_exports` - package roots that import on first use;
 * :mod:`common.atomic_files` - files written whole or not at all.
 """
 from common.atomic_files import write_bytes_atomically

@@ -22,7 +22,7 @@ neither torch nor pybullet.
 """
 from __future__ import annotations
 
-import importlib
+from common.lazy_exports import lazy_exports
 
 _LAZY = {
     "explore": "explorer.run",
@@ -69,12 +69,4 @@ _LAZY = {
 
 __all__ = sorted(_LAZY)
 
-
-def __getattr__(name: str):
-    if name in _LAZY:
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module 'explorer' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY)

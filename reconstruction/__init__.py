@@ -17,7 +17,7 @@ not import torch.
 """
 from __future__ import annotations
 
-import importlib
+from common.lazy_exports import lazy_exports
 
 _LAZY = {
     "GPIS": "reconstruction.gpis",
@@ -42,12 +42,4 @@ _LAZY = {
 
 __all__ = sorted(_LAZY)
 
-
-def __getattr__(name: str):
-    if name in _LAZY:
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module 'reconstruction' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY)

@@ -12,8 +12,7 @@ Heavy modules (torch, pybullet) are imported on first use of their names, so tha
 """
 from __future__ import annotations
 
-import importlib
-
+from common.lazy_exports import lazy_exports
 from robots.registry import RobotRegistry, load, names, register
 from robots.spec import RobotSpec
 
@@ -38,8 +37,4 @@ _LAZY = {
 
 __all__ = ["RobotRegistry", "RobotSpec", "load", "names", "register", *_LAZY]
 
-
-def __getattr__(name: str):
-    if name in _LAZY:
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module 'robots' has no attribute {name!r}")
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
