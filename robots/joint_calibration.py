@@ -190,6 +190,9 @@ class CalibratedRobot(Robot):
 
     ``joint_positions() = inner.joint_positions() - offset`` and every commanded position is sent as
     ``q + offset``, so the nominal kinematics of the corrected angles is the true pose.
+    A command the planner placed at a nominal joint limit would land past the real one by the
+    offset: commands are clipped to the inner robot's limits (``lower_rad`` / ``upper_rad``, where
+    it has them), as a controller's soft limits would, and the readings then say where it stopped.
     Other attributes are the inner robot's.
     """
 
@@ -210,10 +213,10 @@ class CalibratedRobot(Robot):
         return self.inner.joint_positions() - self.offset_rad
 
     def move_joints(self, q, speed_rad_s: float = 1.0) -> None:
-        self.inner.move_joints(np.asarray(q, float) + self.offset_rad, speed_rad_s)
+        self.inner.move_joints(self._command(q), speed_rad_s)
 
     def guarded_move(self, path, stop: Callable[[], bool], speed_rad_s: float = 0.2) -> GuardedMoveResult:
-        result = self.inner.guarded_move(np.asarray(path, float) + self.offset_rad, stop, speed_rad_s)
+        result = self.inner.guarded_move(self._command(path), stop, speed_rad_s)
         return GuardedMoveResult(stopped=result.stopped, q=result.q - self.offset_rad,
                                  waypoint_index=result.waypoint_index)
 
@@ -224,3 +227,11 @@ class CalibratedRobot(Robot):
 
     def time_s(self) -> float:
         return self.inner.time_s()
+
+    def _command(self, q) -> np.ndarray:
+        """Corrected angles ``q`` ((dof,) or (n, dof), radians) -> the inner robot's, within its limits."""
+        raw = np.asarray(q, float) + self.offset_rad
+        lower, upper = getattr(self.inner, "lower_rad", None), getattr(self.inner, "upper_rad", None)
+        if lower is None or upper is None:
+            return raw
+        return np.clip(raw, lower, upper)

@@ -83,3 +83,37 @@ def test_too_few_touches_are_refused(kinematics, true_touches):
     q_true, quats, centre, radius = true_touches
     with pytest.raises(ValueError, match="cannot determine 7 joint offsets"):
         fit_joint_offsets(kinematics, SphereTouches(q_true[:3], quats[:3], centre[:3], radius))
+
+
+class _LimitedArm:
+    """An arm that refuses commands past its limits, as the simulated and real arms do."""
+
+    dof = 2
+    lower_rad = np.array([-1.0, -0.5])
+    upper_rad = np.array([1.0, 0.5])
+
+    def __init__(self):
+        self.q = np.zeros(2)
+
+    def move_joints(self, q, speed_rad_s=1.0):
+        q = np.asarray(q, float)
+        if np.any(q < self.lower_rad) or np.any(q > self.upper_rad):
+            raise ValueError("q is outside the joint limits")
+        self.q = q
+
+    def joint_positions(self):
+        return self.q.copy()
+
+
+def test_a_calibrated_arm_stops_at_its_real_limit_instead_of_refusing_a_nominal_one():
+    from robots.joint_calibration import CalibratedRobot
+
+    inner = _LimitedArm()
+    offset = np.array([0.05, -0.02])
+    arm = CalibratedRobot(inner, offset)
+    arm.move_joints([0.2, 0.1])  # well inside: sent shifted by the offset, read back corrected
+    np.testing.assert_allclose(inner.q, [0.25, 0.08])
+    np.testing.assert_allclose(arm.joint_positions(), [0.2, 0.1])
+    arm.move_joints(inner.upper_rad)  # the nominal limit: the shifted command would pass the real one
+    np.testing.assert_allclose(inner.q, [1.0, 0.48])
+    np.testing.assert_allclose(arm.joint_positions(), [1.0 - 0.05, 0.5])
