@@ -12,7 +12,11 @@ The pad gets the spec's friction and contact softness.
 
 Encoders: the loop commands and reads encoder angles. With a calibration offset ``o`` the joint
 controller servoes ``true + o`` to the command, so the true arm stands ``o`` away from where the
-nominal kinematics put it; backlash and noise only enter the reported angles.
+nominal kinematics put it; backlash and noise only enter the reported angles. The URDF limits are
+the controller's software limits on the encoder angles; a real arm's mechanical stops lie beyond
+them, so with an offset the simulated stops move :data:`MECHANICAL_STOP_MARGIN_RAD` beyond the true
+angle at each software limit (otherwise a command at a software limit would end ``o`` short of its
+target against the URDF stop and be taken for a blocked move).
 """
 from __future__ import annotations
 
@@ -31,6 +35,8 @@ from common.pad_state import PadState
 
 REACHED_TOLERANCE_RAD = 2e-3
 SETTLE_TIMEOUT_S = 1.0
+#: How far a joint's mechanical stop lies beyond the true angle at its software limit, radians.
+MECHANICAL_STOP_MARGIN_RAD = float(np.radians(1.0))
 STABILITY_MARGIN = 2.0
 
 
@@ -164,6 +170,11 @@ class SimArm(Robot):
             raise ValueError(f"encoder offset_rad has {len(encoder.offset_rad)} values, robot {spec.name!r} has "
                              f"{spec.dof} joints")
         self._offset_rad = np.array(encoder.offset_rad) if encoder.offset_rad else np.zeros(spec.dof)
+        if np.any(self._offset_rad != 0.0):
+            for index, lower, upper, offset in zip(self._arm_joints, self.lower_rad, self.upper_rad, self._offset_rad):
+                pb.changeDynamics(self.body, index, jointLowerLimit=float(lower - offset - MECHANICAL_STOP_MARGIN_RAD),
+                                  jointUpperLimit=float(upper - offset + MECHANICAL_STOP_MARGIN_RAD),
+                                  physicsClientId=client)
         self._backlash_side = np.zeros(spec.dof)  # -1, 0, +1: direction of each joint's last motion
         self._backlash_anchor = None
         if not (np.isfinite(spring_friction_nm) and spring_friction_nm >= 0.0):

@@ -33,6 +33,24 @@ def test_calibration_offset_moves_the_true_arm_while_the_encoders_read_the_comma
         SimArm(world, spec, encoder=EncoderModel(offset_rad=(0.1, 0.2)))
 
 
+def test_an_offset_arm_reaches_every_software_limit_and_stops_at_its_mechanical_one(world, spec):
+    from robots.sim_arm import MECHANICAL_STOP_MARGIN_RAD
+
+    offsets = np.radians([0.5, -0.3, 0.2, 0.4, -0.6, 0.1, 0.3])
+    arm = SimArm(world, spec, encoder=EncoderModel(offset_rad=tuple(offsets)))
+    for limits in (arm.upper_rad, arm.lower_rad):  # the joint whose true stop the offset would cross first
+        target = spec.home_q.copy()
+        joint = int(np.argmin(offsets) if limits is arm.upper_rad else np.argmax(offsets))
+        target[joint] = limits[joint]
+        arm.move_joints(target, speed_rad_s=0.5)  # raised "stopped ... away" when the URDF stop was the true one
+        assert abs(arm.joint_positions()[joint] - limits[joint]) < 2.5e-3
+    arm.reset_joint_positions(spec.home_q)
+    arm._command(arm.upper_rad + np.radians(5.0), np.zeros(arm.dof))  # past the software limit, as a fault would
+    world.step(480)
+    true_beyond = arm.true_joint_positions() - (arm.upper_rad - offsets)
+    assert np.all(true_beyond < MECHANICAL_STOP_MARGIN_RAD + 2e-3)  # held by the stop, one margin beyond
+
+
 def test_backlash_leads_the_reading_in_the_direction_of_motion(world, spec):
     backlash = math.radians(0.5)
     arm = SimArm(world, spec, encoder=EncoderModel(backlash_rad=backlash))
