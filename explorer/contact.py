@@ -100,6 +100,9 @@ class ContactQuality:
         rests on its rim (an edge, a ridge, or friction holding it part way).
     doubtful : bool
         The normal may be off (:class:`DoubtRule`): the GPIS takes it with a larger noise.
+    peak_force_n : float or None
+        The largest force of the press (from its highest pressure reading), newtons; ``force_n``
+        is the settled one, which a creeping or cooling pad reads lower. None: not known.
     """
 
     force_n: float
@@ -109,6 +112,7 @@ class ContactQuality:
     pad_uv_m: tuple[float, float] | None = None
     rim_distance_m: float | None = None
     doubtful: bool = False
+    peak_force_n: float | None = None
 
     @property
     def approach_angle_rad(self) -> float | None:
@@ -235,9 +239,10 @@ class DoubtRule:
         ... and the measured normal is more than this from the approach (a pad pressed head on
         does not lean on its rim by friction), radians.
     side_force_n : float or None
-        A press that ended below this force with the pad turned less than ``side_tilt_rad`` is
-        no contact of the pad's face: the press ran to its depth without the force and the pad
-        did not yield by turning, so it was pushed aside (the object met the pad's side or
+        A press that never reached this force (its peak, :attr:`ContactQuality.peak_force_n`, or
+        the settled force where the peak is not known) with the pad turned less than
+        ``side_tilt_rad`` is no contact of the pad's face: the press ran to its depth without the
+        force and the pad did not yield by turning, so it was pushed aside (the object met the pad's side or
         corner; its centre can be more than the pad's half width off). The pipeline then raises
         :class:`NoContactMeasured`. None (default, e.g. teleoperation, where the operator sets
         the force): no such test; the loop sets it from its press force.
@@ -254,7 +259,10 @@ class DoubtRule:
         """Whether ``quality`` marks a press on the pad's side (see ``side_force_n``)."""
         if self.side_force_n is None or quality.tilt_rad is None:
             return False
-        return bool(quality.force_n < self.side_force_n and quality.tilt_rad < self.side_tilt_rad)
+        # The peak, not the settled force: a pad that creeps or cools after the press stopped on
+        # force reads less while the IMU settles (hardware-like profile: 1.5 N -> 1.1-1.2 N).
+        force = quality.force_n if quality.peak_force_n is None else max(quality.force_n, quality.peak_force_n)
+        return bool(force < self.side_force_n and quality.tilt_rad < self.side_tilt_rad)
 
     def doubtful(self, quality: "ContactQuality") -> bool:
         """Whether ``quality`` (with ``rim_distance_m``) marks a doubtful normal."""
@@ -340,12 +348,14 @@ class ContactPipeline:
         p_obj, n_obj = frame.to_object(surface[None], contact.normal[None])
         normal = n_obj[0] / np.linalg.norm(n_obj[0])
         cosine = None if approach_dir is None else float(np.dot(normal, -np.asarray(approach_dir, float)))
+        peak_rise_pa = max(r.pressure_pa for r in readings) - baseline_pa
         quality = ContactQuality(contact.force_n, len(readings), cosine, load.tilt_rad,
                                  tuple(float(v) for v in load.pad_uv_m),
-                                 load.rim_distance_m(self.pad.half_width_m))
+                                 load.rim_distance_m(self.pad.half_width_m),
+                                 peak_force_n=self.force_estimate_n(peak_rise_pa))
         quality = replace(quality, doubtful=self.doubt.doubtful(quality))
         if self.doubt.side_contact(quality):
-            raise NoContactMeasured(f"the press ended at {contact.force_n:.2f} N with the pad turned "
+            raise NoContactMeasured(f"the press reached {quality.peak_force_n:.2f} N with the pad turned "
                                     f"{np.degrees(load.tilt_rad):.1f} deg: the pad's side or corner, not its face")
         return MeasuredContact(contact, p_obj[0], normal, quality)
 
