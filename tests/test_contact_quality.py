@@ -6,6 +6,7 @@ cylinder, turned on its spring until the contact's torque about the pivot equals
 (``k angle = F u``), must be measured on the edge / on the cylinder, where the pad centre is
 millimetres off.
 """
+import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
@@ -130,6 +131,24 @@ def test_a_soft_press_that_did_not_turn_the_pad_is_no_contact():
     turned = 1.0 * 0.007 / K_NM_PER_RAD  # 20 deg: the pad yielded by turning onto its rim
     assert measure_resting_pad(turned, 0.007, 1.0, np.zeros(3), doubt=rule)[0].quality.doubtful
     assert measure_resting_pad(0.0, 0.0, 0.8, np.zeros(3))[0].quality.force_n == pytest.approx(0.8)
+
+
+def test_a_press_that_reached_the_force_and_then_crept_is_a_contact():
+    """A pad that creeps or cools after the press stopped on force reads less while the IMU
+    settles; the side test looks at the press's peak, so such a press stays a contact."""
+    from explorer.contact import NoContactMeasured
+
+    rule = DoubtRule(side_force_n=1.3, side_tilt_rad=np.radians(12.0))
+    pad = PadCalibration(compliance_m_per_n=0.0, spring_stiffness_nm_per_rad=K_NM_PER_RAD)
+    pipeline = ContactPipeline(TiltedToolKinematics(np.array([0.0, 0.0, -PIVOT_TO_FACE_M])), pad, doubt=rule)
+    frame = ObjectFrame(np.eye(3), np.zeros(3))
+    peak, settled = press_readings(Rotation.identity(), 1.6)[:5], press_readings(Rotation.identity(), 1.1)
+    crept = peak + [dataclasses.replace(r, t_s=r.t_s + 0.05) for r in settled]
+    measured = pipeline.measure(crept, BASELINE_PA, np.zeros(3), frame, approach_dir=np.array([0.0, 0.0, 1.0]))
+    assert measured.quality.force_n == pytest.approx(1.1, abs=0.05)  # settled: below the side force
+    assert measured.quality.peak_force_n == pytest.approx(1.6, abs=0.05)
+    with pytest.raises(NoContactMeasured, match="reached 1.1"):  # never above it: the pad's side
+        pipeline.measure(press_readings(Rotation.identity(), 1.1), BASELINE_PA, np.zeros(3), frame)
 
 
 def test_the_doubt_rule_needs_both_the_rim_and_an_oblique_approach():
