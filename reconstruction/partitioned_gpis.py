@@ -35,7 +35,10 @@ from reconstruction.gpis import GPIS, VarianceTracker, _check_bounds, _finite_ar
 from reconstruction.kernels import ConstantKernel, Kernel, Matern32Kernel, SumKernel, ThinPlateKernel
 
 #: Local kernels by name.
-LOCAL_KERNELS = ("thin_plate", "matern32")
+LOCAL_KERNELS = ("thin_plate", "matern32", "matern32-ml")
+
+#: Candidate Matern-3/2 length scales of ``matern32-ml``, as multiples of the fit radius.
+ML_LENGTH_FACTORS = (0.25, 0.5, 1.0, 2.0)
 
 
 def wendland(t: np.ndarray) -> np.ndarray:
@@ -90,10 +93,12 @@ class PartitionedGPIS:
         Weight support radius over the leaf's half diagonal (> 1 so neighbouring supports overlap).
     min_fit_contacts : int
         The fit ball grows beyond the support until it holds this many contacts.
-    local_kernel : {"thin_plate", "matern32"}
+    local_kernel : {"thin_plate", "matern32", "matern32-ml"}
         ``thin_plate``: ``R = scale_factor x`` the fit ball's diameter (>= 1.5 keeps the system
         positive definite); ``matern32``: length scale ``scale_factor x`` the fit radius, plus a
-        constant of 5 cm.
+        constant of 5 cm; ``matern32-ml``: the length scale among :data:`ML_LENGTH_FACTORS` x the
+        fit radius with the highest local log marginal likelihood, chosen per cell at its fit
+        (``scale_factor`` unused; incremental adds keep it).
     scale_factor : float
     global_weight : float
         ``eps``, the global GPIS's weight in the blend.
@@ -352,14 +357,20 @@ class PartitionedGPIS:
         kth = float(np.atleast_1d(tree.query(cell.centre, k=k)[0])[-1])
         cell.fit_radius_m = max(cell.support_m, kth) * (1 + 1e-9)  # the k-th contact surely inside
         idx = np.asarray(tree.query_ball_point(cell.centre, cell.fit_radius_m), int)
-        cell.gp = GPIS(kernel=self._local_kernel(cell.fit_radius_m), bounds=self.bounds, **self.gpis_kwargs)
-        cell.gp.fit(self._points[idx], self._normals[idx], self._floor[idx])
+        def fit(kernel: Kernel) -> GPIS:
+            gp = GPIS(kernel=kernel, bounds=self.bounds, **self.gpis_kwargs)
+            return gp.fit(self._points[idx], self._normals[idx], self._floor[idx])
+
+        if self.local_kernel == "matern32-ml":
+            fits = [fit(_matern(f * cell.fit_radius_m)) for f in ML_LENGTH_FACTORS]
+            cell.gp = max(fits, key=lambda gp: gp.log_marginal_likelihood())
+        else:
+            cell.gp = fit(self._local_kernel(cell.fit_radius_m))
 
     def _local_kernel(self, fit_radius_m: float) -> Kernel:
         if self.local_kernel == "thin_plate":
             return ThinPlateKernel(self.scale_factor * 2.0 * fit_radius_m)
-        length = self.scale_factor * fit_radius_m
-        return SumKernel(Matern32Kernel(length, length / np.sqrt(3.0)), ConstantKernel(0.05))
+        return _matern(self.scale_factor * fit_radius_m)
 
     @staticmethod
     def _in_support(cell: Cell, x: np.ndarray) -> np.ndarray:
@@ -374,6 +385,11 @@ class PartitionedGPIS:
     def _check_query(self, x) -> np.ndarray:
         self._require_fit()
         return _finite_array(x, "query points", (None, 3))
+
+
+def _matern(length_m: float) -> Kernel:
+    """Matern-3/2 with unit prior gradient variance, plus a constant of 5 cm."""
+    return SumKernel(Matern32Kernel(length_m, length_m / np.sqrt(3.0)), ConstantKernel(0.05))
 
 
 class PartitionedVarianceTracker:

@@ -109,7 +109,10 @@ def _partitioned(**kwargs):
 #: Partitions of unity of local GPIS fits (issue 10, "Partitioned GPIS" in BENCHMARKS.md).
 METHODS.update({"partitioned": _partitioned(),
                 "partitioned-fine": _partitioned(max_cell_contacts=10, min_cell_m=0.005),
-                "partitioned-matern": _partitioned(local_kernel="matern32", scale_factor=0.5)})
+                "partitioned-matern": _partitioned(local_kernel="matern32", scale_factor=0.5),
+                "partitioned-matern-ml": _partitioned(local_kernel="matern32-ml"),
+                "partitioned-fine-matern-ml": _partitioned(local_kernel="matern32-ml", max_cell_contacts=10,
+                                                           min_cell_m=0.005)})
 
 
 def object_names(which: str, quick: bool) -> list[str]:
