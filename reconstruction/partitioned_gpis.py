@@ -170,7 +170,7 @@ class PartitionedGPIS:
         fit whose fit ball holds it; a leaf that grows past twice ``max_cell_contacts`` is split and
         its children fitted anew."""
         if not self.n_contacts:
-            return self.fit(point, normal, normal_noise)
+            return self.fit(np.atleast_2d(point), np.atleast_2d(normal), normal_noise)
         self.global_gp.add(point, normal, normal_noise)
         first = len(self._points)
         self._points = self.global_gp.contact_points

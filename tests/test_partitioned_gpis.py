@@ -117,3 +117,31 @@ def test_bad_settings_are_rejected():
         PartitionedGPIS(BOUNDS, use_normals=False)
     with pytest.raises(RuntimeError, match="no contacts"):
         PartitionedGPIS(BOUNDS).mean(np.zeros((1, 3)))
+
+
+def test_the_exploration_loop_and_the_variance_strategy_accept_it(tmp_path):
+    from explorer.loop import ExplorationLoop, LoopConfig
+    from explorer.recording import RunRecorder
+    from explorer.strategies import ExplorationState, VarianceStrategy
+    from fakes import FakePlanner, ScriptedStrategy, sphere_rig
+    from test_loop_fast import scripted_touches
+
+    _, rig = sphere_rig(0.04)
+    gp = PartitionedGPIS(rig.prior.bounds())
+    recorder = RunRecorder(tmp_path, dict(rig.description, seed=0, configuration={}))
+    loop = ExplorationLoop(rig, FakePlanner(rig.positioner), ScriptedStrategy(scripted_touches()), gp,
+                           LoopConfig(touches=6, proposal_rounds=1, max_realign_fraction=1.0,
+                                      doubt_rim_margin_m=1.0, repress_force_n=0.0), recorder)
+    records = loop.run()
+    recorder.close()
+    contacts = [r.position_m for r in records if r.kind == "contact"]  # realigns are set aside
+    assert len(contacts) > 0
+    np.testing.assert_allclose(gp.contact_points, contacts)
+
+    # contacts on the upper half of a sphere only: the variance strategy goes to the lower half
+    d = np.random.default_rng(8).normal(size=(200, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d = d[d[:, 2] > 0.2][:50]
+    upper = PartitionedGPIS(rig.prior.bounds()).fit(0.04 * d, d)
+    touches = VarianceStrategy().propose(ExplorationState(rig.prior, upper, touches=40), 2)
+    assert all(t.target_m[2] < -0.01 for t in touches)
