@@ -68,6 +68,8 @@ class Cell:
         Radius of the ball whose contacts the local GPIS was fitted to, metres.
     gp : GPIS or None
         The local fit (None: the cell holds no contact and does not contribute).
+    contacts : list of int
+        Indices of the contacts inside the cell's box (which decide when it splits).
     """
 
     centre: np.ndarray
