@@ -5,6 +5,8 @@ Public API:
 * :class:`GPIS` (fit / add contacts, mean, gradient, variance, mesh) and :class:`VarianceTracker`;
   kernels :class:`ThinPlateKernel`, :class:`ReferenceThinPlateKernel`,
   :class:`SquaredExponentialKernel`, :class:`QuadraticTrend`, :data:`KERNEL_NAMES`;
+* :class:`PartitionedGPIS` (a partition of unity of local GPIS fits on a density-adaptive octree;
+  an option, not the default: BENCHMARKS.md, issue 10);
 * :func:`mesh_zero_level` (coarse-to-fine marching cubes of any implicit function);
 * :func:`confident_surface` (cut the faces where the posterior std of ``f`` is above a bound);
 * metrics: :func:`surface_error` (-> :class:`SurfaceError`), :func:`shape_metrics`,
@@ -27,6 +29,7 @@ _LAZY = {
     "ReferenceThinPlateKernel": "reconstruction.kernels",
     "SquaredExponentialKernel": "reconstruction.kernels",
     "QuadraticTrend": "reconstruction.kernels",
+    "PartitionedGPIS": "reconstruction.partitioned_gpis",
     "mesh_zero_level": "reconstruction.meshing",
     "confident_surface": "reconstruction.confidence",
     "SurfaceError": "reconstruction.metrics",

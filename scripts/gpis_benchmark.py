@@ -43,6 +43,8 @@ METHODS = {
     "no normals": dict(kernel="thin_plate", use_normals=False),
     # the default GPIS, meshed with only the faces it is confident about (issue 10)
     "normals, confident surface": dict(kernel="thin_plate", use_normals=True, max_std_m=2.0e-3),
+    # a partition of unity of local GPIS fits (reconstruction.partitioned_gpis; issue 10)
+    "normals, partitioned": dict(kernel="thin_plate", use_normals=True, partitioned=True),
 }
 #: The literature's metrics (reconstruction.metrics.ShapeMetrics), means over the seeds.
 STANDARD = ("chamfer_l1_mm", "chamfer_l2_mm", "fscore_1mm", "fscore_2mm", "fscore_5mm", "normal_consistency")
@@ -77,7 +79,13 @@ def object_bounds(mesh) -> tuple[np.ndarray, np.ndarray]:
 def reconstruct(method: str, points, normals, bounds, resolution: int, **gp_kwargs):
     settings = dict(METHODS[method])
     max_std_m = settings.pop("max_std_m", None)
-    gp = GPIS(bounds=bounds, **settings, **gp_kwargs)
+    if settings.pop("partitioned", False):
+        from reconstruction.partitioned_gpis import PartitionedGPIS
+
+        settings.pop("kernel")
+        gp = PartitionedGPIS(bounds, **settings, **gp_kwargs)
+    else:
+        gp = GPIS(bounds=bounds, **settings, **gp_kwargs)
     gp.fit(points, normals if settings["use_normals"] else None)
     return gp.mesh(resolution=resolution, max_std_m=max_std_m)
 

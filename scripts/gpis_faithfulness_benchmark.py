@@ -97,6 +97,24 @@ CONFIDENT_BOUNDS_MM = {"confident": DEFAULT_MAX_STD_M * 1e3, "confident-1.5": 1.
 METHODS.update({name: _current_default for name in CONFIDENT_BOUNDS_MM})
 
 
+def _partitioned(**kwargs):
+    """A :class:`reconstruction.partitioned_gpis.PartitionedGPIS` method with these settings."""
+    def make(bounds):
+        from reconstruction.partitioned_gpis import PartitionedGPIS
+
+        return PartitionedGPIS(bounds, **kwargs)
+    return make
+
+
+#: Partitions of unity of local GPIS fits (issue 10, "Partitioned GPIS" in BENCHMARKS.md).
+METHODS.update({"partitioned": _partitioned(),
+                "partitioned-fine": _partitioned(max_cell_contacts=10, min_cell_m=0.005),
+                "partitioned-matern": _partitioned(local_kernel="matern32", scale_factor=0.5),
+                "partitioned-matern-ml": _partitioned(local_kernel="matern32-ml"),
+                "partitioned-fine-matern-ml": _partitioned(local_kernel="matern32-ml", max_cell_contacts=10,
+                                                           min_cell_m=0.005)})
+
+
 def object_names(which: str, quick: bool) -> list[str]:
     """Names in a set; ``quick`` keeps the first object of each family (one per registry object)."""
     from objects.generated import HELD_OUT, TUNING

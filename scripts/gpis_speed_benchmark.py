@@ -41,9 +41,15 @@ def timed(fn, repeat: int = 1) -> float:
     return statistics.median(times)
 
 
-def measure(n: int, grid: int, candidates: int, dense: bool, seed: int = 0, **gpis_kwargs) -> dict:
+def measure(n: int, grid: int, candidates: int, dense: bool, seed: int = 0, partitioned: bool = False,
+            **gpis_kwargs) -> dict:
     points, normals = sphere_contacts(n + 20, seed)
-    gp = GPIS(bounds=BOUNDS, **gpis_kwargs)
+    if partitioned:
+        from reconstruction.partitioned_gpis import PartitionedGPIS
+
+        gp = PartitionedGPIS(BOUNDS, **gpis_kwargs)
+    else:
+        gp = GPIS(bounds=BOUNDS, **gpis_kwargs)
     fit_s = timed(lambda: gp.fit(points[:n], normals[:n]), repeat=2 if n <= 1000 else 1)
 
     add_times = []
@@ -114,6 +120,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--baseline-normal-noise", type=float, default=None,
                         help="also time GPIS(normal_noise=this, opposing_normal_noise=None) (0.2: the "
                              "default before issue 10) and print add and variance ratios against it")
+    parser.add_argument("--partitioned", action="store_true",
+                        help="also time reconstruction.PartitionedGPIS (its defaults) and print add and "
+                             "variance ratios against the default GPIS")
     args = parser.parse_args(argv)
     sizes = [int(s) for s in args.sizes.split(",")]
     rows = []
@@ -130,6 +139,15 @@ def main(argv: list[str] | None = None) -> None:
                          f"({r['add_ms'] / b['add_ms']:.2f}x), incremental variance {r['var_inc_ms']:.1f} vs "
                          f"{b['var_inc_ms']:.1f} ms ({r['var_inc_ms'] / b['var_inc_ms']:.2f}x)")
         ratios = "\n".join(lines) + "\n"
+    if args.partitioned:
+        lines = ["\nPartitionedGPIS in the same run:"]
+        for r in rows:
+            b = measure(r["n"], args.grid, args.candidates, dense=False, partitioned=True)
+            lines.append(f"{r['n']} contacts: fit {b['fit_s']:.3f} vs {r['fit_s']:.3f} s, add {b['add_ms']:.1f} vs "
+                         f"{r['add_ms']:.1f} ms ({b['add_ms'] / r['add_ms']:.2f}x the default), incremental variance "
+                         f"{b['var_inc_ms']:.1f} vs {r['var_inc_ms']:.1f} ms ({b['var_inc_ms'] / r['var_inc_ms']:.2f}x), "
+                         f"mesh {b['mesh_s']:.2f} vs {r['mesh_s']:.2f} s, tracker {b['tracker_mb']:.0f} MB")
+        ratios += "\n".join(lines) + "\n"
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     text = (f"Machine: {machine()}\n\n{table(rows, args.grid, args.candidates)}\n{ratios}\n"
             f"Peak resident memory of the benchmark process: {peak_mb:.0f} MB\n")
