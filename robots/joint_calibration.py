@@ -179,6 +179,63 @@ def fit_joint_offsets(kinematics, touches: SphereTouches, ridge_m_per_rad: float
                      link_length_error_m={k: float(v) for k, v in lengths.items()}, parameter_std=std)
 
 
+#: Ridge weights (metres of residual per radian) :func:`cross_validated_ridge` chooses from.
+RIDGE_LADDER_M_PER_RAD = (0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0)
+
+
+@dataclass(frozen=True)
+class RidgeChoice:
+    """Outcome of :func:`cross_validated_ridge`.
+
+    Attributes
+    ----------
+    ridge_m_per_rad : float
+        The chosen weight.
+    scores_m : dict float -> (float, float)
+        Per candidate, the RMS left-out sphere residual over the folds and its standard error, metres.
+    """
+
+    ridge_m_per_rad: float
+    scores_m: dict
+
+
+def cross_validated_ridge(kinematics, touches: SphereTouches, ridges=RIDGE_LADDER_M_PER_RAD,
+                          folds: int = 4, link_lengths: bool = False) -> RidgeChoice:
+    """The ridge weight that predicts left-out touches best, from the touches alone (as a lab has them).
+
+    ``folds``-fold cross-validation in touch order: each candidate is fitted without one fold and
+    scored by that fold's sphere residuals. Noisy touches (a pad that did not lie flat, an IMU
+    heading error) let weakly seen offsets soak up noise with a small ridge; the one-standard-error
+    rule then takes the largest ridge within one standard error of the best score, so an offset the
+    touches cannot determine stays near zero.
+    """
+    n = len(touches.q_rad)
+    if n < 2 * folds:
+        raise ValueError(f"{n} touches are too few for {folds}-fold cross-validation")
+    fold_of = np.arange(n) % folds
+    centres = np.broadcast_to(touches.centre_m, (n, 3))
+    scores = {}
+    for ridge in ridges:
+        fold_ms = []
+        for k in range(folds):
+            train, test = fold_of != k, fold_of == k
+            fit = fit_joint_offsets(kinematics, SphereTouches(touches.q_rad[train], touches.body_quat_wxyz[train],
+                                                              centres[train], touches.radius_m),
+                                    ridge_m_per_rad=ridge, link_lengths=link_lengths)
+            left_out = SphereTouches(touches.q_rad[test], touches.body_quat_wxyz[test], centres[test],
+                                     touches.radius_m)
+            residual = sphere_residuals_m(kinematics, left_out, fit.offset_rad, fit.link_length_error_m or None)
+            fold_ms.append(float(np.mean(residual**2)))
+        fold_ms = np.array(fold_ms)
+        rms = float(np.sqrt(fold_ms.mean()))
+        standard_error_ms = float(fold_ms.std(ddof=1) / np.sqrt(folds))
+        scores[float(ridge)] = (rms, standard_error_ms / (2.0 * max(rms, 1e-12)))  # delta method: MSE -> RMS
+    best = min(scores, key=lambda r: scores[r][0])
+    limit = scores[best][0] + scores[best][1]
+    chosen = max(r for r, (score, _) in scores.items() if score <= limit)
+    return RidgeChoice(chosen, scores)
+
+
 def _arm_links(kinematics):
     from robots.link_lengths import arm_link_lengths
 

@@ -186,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(str(error))
     if args.touches < 12:
         parser.error(f"--touches must be at least 12 (8 to calibrate 7 joints, 4 held out), got {args.touches}")
-    from robots.joint_calibration import SphereTouches, fit_joint_offsets
+    from robots.joint_calibration import SphereTouches, cross_validated_ridge, fit_joint_offsets
     from robots.link_lengths import link_length_shift_m
 
     started = time.perf_counter()
@@ -201,7 +201,9 @@ def main(argv: list[str] | None = None) -> int:
     if n_fit < kinematics.dof + 4:
         print(f"calibrate_joints: only {len(q)} touches were usable; raise --touches", file=sys.stderr)
         return 1
-    fit = fit_joint_offsets(kinematics, SphereTouches(q[:n_fit], quats[:n_fit], balls[:n_fit], BALL_RADIUS_M),
+    calibration_touches = SphereTouches(q[:n_fit], quats[:n_fit], balls[:n_fit], BALL_RADIUS_M)
+    ridge = cross_validated_ridge(kinematics, calibration_touches, link_lengths=args.link_lengths)
+    fit = fit_joint_offsets(kinematics, calibration_touches, ridge_m_per_rad=ridge.ridge_m_per_rad,
                             link_lengths=args.link_lengths)
 
     def errors_mm(offset, lengths):
@@ -224,6 +226,8 @@ def main(argv: list[str] | None = None) -> int:
         "fitted_link_length_error_mm": {k: round(1e3 * v, 4) for k, v in fit.link_length_error_m.items()},
         "link_length_std_mm": dict(zip(fit.link_length_error_m, (1e3 * fit.parameter_std[dof:]).round(4).tolist())),
         "singular_values": fit.singular_values.round(5).tolist(),
+        "ridge_m_per_rad": ridge.ridge_m_per_rad,
+        "ridge_cross_validation_rms_mm": {str(k): round(1e3 * v[0], 4) for k, v in ridge.scores_m.items()},
         "ball_residual_rms_mm": {"before": float(1e3 * np.sqrt(np.mean(fit.residual_before_m**2))),
                                  "after": float(1e3 * np.sqrt(np.mean(fit.residual_after_m**2)))},
         "held_out_pad_error_mm": {"before_mean": float(before.mean()), "before_max": float(before.max()),

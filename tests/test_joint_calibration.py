@@ -117,3 +117,26 @@ def test_a_calibrated_arm_stops_at_its_real_limit_instead_of_refusing_a_nominal_
     arm.move_joints(inner.upper_rad)  # the nominal limit: the shifted command would pass the real one
     np.testing.assert_allclose(inner.q, [1.0, 0.48])
     np.testing.assert_allclose(arm.joint_positions(), [1.0 - 0.05, 0.5])
+
+
+def test_cross_validation_keeps_a_small_ridge_for_clean_touches_and_a_large_one_for_noise(kinematics, true_touches):
+    """Clean touches of a real offset: the fit needs freedom (a small ridge predicts left-out touches
+    best). Touches of a true arm (no offset) with large IMU noise: any offset only fits noise, so the
+    chosen ridge is larger and the fitted offsets smaller than the smallest ridge's."""
+    from robots.joint_calibration import RIDGE_LADDER_M_PER_RAD, cross_validated_ridge
+
+    q_true, quats, centre, radius = true_touches
+    injected = np.radians([0.6, -0.4, 0.3, 0.5, -0.7, 0.2, -0.3])
+    clean = cross_validated_ridge(kinematics, SphereTouches(q_true + injected, quats, centre, radius))
+    assert clean.ridge_m_per_rad <= 0.1
+    assert clean.scores_m[RIDGE_LADDER_M_PER_RAD[0]][0] < clean.scores_m[RIDGE_LADDER_M_PER_RAD[-1]][0]
+
+    rng = np.random.default_rng(3)
+    turned = Rotation.from_rotvec(np.radians(6.0) * rng.standard_normal((len(quats), 3)))
+    noisy = SphereTouches(q_true, (Rotation.from_quat(quats[:, [1, 2, 3, 0]]) * turned).as_quat()[:, [3, 0, 1, 2]],
+                          centre, radius)
+    choice = cross_validated_ridge(kinematics, noisy)
+    assert choice.ridge_m_per_rad > RIDGE_LADDER_M_PER_RAD[0]
+    loose = fit_joint_offsets(kinematics, noisy, ridge_m_per_rad=RIDGE_LADDER_M_PER_RAD[0]).offset_rad
+    chosen = fit_joint_offsets(kinematics, noisy, ridge_m_per_rad=choice.ridge_m_per_rad).offset_rad
+    assert np.linalg.norm(chosen) < np.linalg.norm(loose)
