@@ -41,6 +41,7 @@ _LAZY = {
     "contact_coverage": "reconstruction.metrics",
     "ContactNoise": "reconstruction.synthetic_contacts",
     "sample_contacts": "reconstruction.synthetic_contacts",
+    "sphere_contacts": "reconstruction.synthetic_contacts",
 }
 
 __all__ = sorted(_LAZY)

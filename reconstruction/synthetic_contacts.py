@@ -83,6 +83,19 @@ def sample_contacts(mesh, n: int, noise: ContactNoise = ContactNoise(), seed: in
     return points, normals, true_points, true_normals
 
 
+def sphere_contacts(n: int, radius_m: float = 0.05, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Exact contacts on a sphere centred at the origin (the closed-form case of tests and examples).
+
+    Returns
+    -------
+    points : (n, 3) float, metres; normals : (n, 3) float, outward unit normals.
+    Directions are Gaussian draws normalised (uniform on the sphere), seeded.
+    """
+    normals = np.random.default_rng(seed).normal(size=(n, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    return radius_m * normals, normals
+
+
 def perturb_normals(normals: np.ndarray, mean_error_deg: float, rng: np.random.Generator) -> np.ndarray:
     """Tilt each (n, 3) unit normal by a Rayleigh-distributed angle with the given mean."""
     if mean_error_deg == 0:

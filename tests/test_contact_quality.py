@@ -20,6 +20,7 @@ from reconstruction.gpis import GPIS
 from sensor.pad_calibration import PadCalibration
 from sensor.reading import Reading
 from sensor.sim.pad_response import PadResponse
+from reconstruction.synthetic_contacts import sphere_contacts as exact_sphere_contacts
 
 PIVOT_TO_FACE_M = 0.0047
 K_NM_PER_RAD = 0.02
@@ -176,10 +177,7 @@ def test_realigns_stop_when_their_budget_is_spent():
 
 
 def sphere_contacts(n: int, seed: int = 0):
-    rng = np.random.default_rng(seed)
-    normals = rng.normal(size=(n, 3))
-    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    return 0.05 * normals, normals
+    return exact_sphere_contacts(n, 0.05, seed)
 
 
 def test_a_doubtful_normal_pulls_the_field_less():

@@ -23,6 +23,7 @@ from reconstruction.gpis import GPIS
 from objects.features import sharp_edges
 from sensor.contact_detection import ContactEvent, PressureContactDetector
 from sensor.reading import Reading
+from reconstruction.synthetic_contacts import sphere_contacts as exact_sphere_contacts
 
 RADIUS = 0.03
 BOUNDS = ((-0.05,) * 3, (0.05,) * 3)
@@ -62,9 +63,7 @@ def red_pixels(rgba, axes) -> int:
 
 
 def sphere_contacts(n, seed=0):
-    v = np.random.default_rng(seed).normal(size=(n, 3))
-    v /= np.linalg.norm(v, axis=1, keepdims=True)
-    return RADIUS * v, v
+    return exact_sphere_contacts(n, RADIUS, seed)
 
 
 @pytest.fixture(scope="module")

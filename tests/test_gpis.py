@@ -4,15 +4,14 @@ import numpy as np
 import pytest
 
 from reconstruction.gpis import GPIS
+from reconstruction.synthetic_contacts import sphere_contacts as exact_sphere_contacts
 
 RADIUS = 0.05
 BOUNDS = ((-0.08, -0.08, -0.08), (0.08, 0.08, 0.08))
 
 
 def sphere_contacts(n, seed=0, radius=RADIUS):
-    v = np.random.default_rng(seed).normal(size=(n, 3))
-    v /= np.linalg.norm(v, axis=1, keepdims=True)
-    return radius * v, v
+    return exact_sphere_contacts(n, radius, seed)
 
 
 def random_directions(n, seed):
