@@ -20,7 +20,7 @@ def _row(obj, seed, rmse, coverage=0.7, strategy="variance", completed=True):
     return row
 
 
-ROWS = [_row("generated:mug/1000", 1, 1.0), _row("generated:mug/1000", 2, 3.0),      # mean 2.0
+ROWS = [_row("generated:mug/1000", 1, 1.0), _row("generated-mug-1000", 2, 3.0),      # mean 2.0 (a sweep's label)
         _row("generated:wedge/1000", 1, 4.0, coverage=0.9),                           # over 3 mm
         _row("generated:bowl/1000", 1, 1.5), _row("generated:bowl/1000", 2, 9.9, completed=False),
         _row("generated:mug/0", 1, 0.5), _row("box", 1, 7.0)]

@@ -21,18 +21,28 @@ COVERAGE_TARGET = 0.8
 SPLITS = ("tuning", "held-out")
 
 
-def split_of(name: str) -> str | None:
-    """``"tuning"``, ``"held-out"`` or None (not in either fixed split)."""
+def canonical_name(name: str) -> str:
+    """A split member's name from itself or its sweep label (``generated-mug-3`` -> ``generated:mug/3``)."""
+    import objects
     from objects.generated import HELD_OUT, TUNING
 
+    labels = {objects.file_label(member): member for member in (*TUNING, *HELD_OUT)}
+    return labels.get(name, name)
+
+
+def split_of(name: str) -> str | None:
+    """``"tuning"``, ``"held-out"`` or None (not in either fixed split); names or sweep labels."""
+    from objects.generated import HELD_OUT, TUNING
+
+    name = canonical_name(name)
     return "tuning" if name in TUNING else "held-out" if name in HELD_OUT else None
 
 
 def family_of(name: str) -> str:
-    """``"generated:mug/3"`` -> ``"mug"``."""
+    """``"generated:mug/3"`` (or its label ``generated-mug-3``) -> ``"mug"``."""
     from objects.generated import parse_name
 
-    return parse_name(name)[0]
+    return parse_name(canonical_name(name))[0]
 
 
 @dataclass(frozen=True)
@@ -60,7 +70,7 @@ def object_results(rows: Sequence[dict], strategy: str | None = None, normals: b
         if (split_of(row["object"]) is None or not row["completed"] or row["normals"] != normals
                 or (strategy is not None and row["strategy"] != strategy)):
             continue
-        groups[row["object"]].append(row)
+        groups[canonical_name(row["object"])].append(row)
     strategies = {row["strategy"] for members in groups.values() for row in members}
     if strategy is None and len(strategies) > 1:
         raise ValueError(f"the sweep has several strategies ({', '.join(sorted(strategies))}): name one")
@@ -141,9 +151,10 @@ def split_figure(curves: Sequence[tuple[str, list[dict]]], path: Path) -> Path:
         if split is None:
             continue
         for point in curve:
-            per_object[split][name][int(point["touches"])].append(point["position_rmse_mm"])
+            per_object[split][canonical_name(name)][int(point["touches"])].append(point["position_rmse_mm"])
     families = sorted({family_of(name) for split in SPLITS for name in per_object[split]})
-    colour = {family: f"C{index % 10}" for index, family in enumerate(families)}  # one colour per family in both panels
+    # one colour and line style per family in both panels (ten colours, then dashed)
+    style = {family: (f"C{index % 10}", "-" if index < 10 else "--") for index, family in enumerate(families)}
     figure = new_figure(11.0, 4.3, layout="constrained")
     axes = figure.subplots(1, 2, sharey=True)
     for ax, split in zip(axes, SPLITS):
@@ -153,7 +164,8 @@ def split_figure(curves: Sequence[tuple[str, list[dict]]], path: Path) -> Path:
                 per_split[split][family_of(name)][n].append(float(np.mean(values)))
         for family, at in sorted(per_split[split].items()):
             touches = sorted(at)
-            ax.plot(touches, [np.mean(at[n]) for n in touches], lw=0.8, alpha=0.6, color=colour[family], label=family)
+            colour, line = style[family]
+            ax.plot(touches, [np.mean(at[n]) for n in touches], lw=0.9, alpha=0.7, color=colour, ls=line, label=family)
         common = sorted(set.intersection(*(set(at) for at in objects_.values()))) if objects_ else []
         if common:
             median = [np.median([np.mean(at[n]) for at in objects_.values()]) for n in common]
