@@ -33,6 +33,8 @@ _LAZY = {
     "CalibratedRobot": "robots.joint_calibration",
     "SphereTouches": "robots.joint_calibration",
     "fit_joint_offsets": "robots.joint_calibration",
+    "cross_validated_ridge": "robots.joint_calibration",
+    "RidgeChoice": "robots.joint_calibration",
 }
 
 __all__ = ["RobotRegistry", "RobotSpec", "load", "names", "register", *_LAZY]

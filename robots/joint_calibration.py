@@ -60,6 +60,11 @@ class SphereTouches:
         object.__setattr__(self, "body_quat_wxyz", quats)
         object.__setattr__(self, "centre_m", np.asarray(self.centre_m, float))
 
+    def subset(self, which) -> "SphereTouches":
+        """The touches selected by ``which`` (a boolean mask or indices over the n touches)."""
+        centres = self.centre_m if self.centre_m.ndim == 1 else self.centre_m[which]
+        return SphereTouches(self.q_rad[which], self.body_quat_wxyz[which], centres, self.radius_m)
+
 
 @dataclass(frozen=True)
 class FitResult:
@@ -213,18 +218,14 @@ def cross_validated_ridge(kinematics, touches: SphereTouches, ridges=RIDGE_LADDE
     if n < 2 * folds:
         raise ValueError(f"{n} touches are too few for {folds}-fold cross-validation")
     fold_of = np.arange(n) % folds
-    centres = np.broadcast_to(touches.centre_m, (n, 3))
     scores = {}
     for ridge in ridges:
         fold_ms = []
         for k in range(folds):
-            train, test = fold_of != k, fold_of == k
-            fit = fit_joint_offsets(kinematics, SphereTouches(touches.q_rad[train], touches.body_quat_wxyz[train],
-                                                              centres[train], touches.radius_m),
-                                    ridge_m_per_rad=ridge, link_lengths=link_lengths)
-            left_out = SphereTouches(touches.q_rad[test], touches.body_quat_wxyz[test], centres[test],
-                                     touches.radius_m)
-            residual = sphere_residuals_m(kinematics, left_out, fit.offset_rad, fit.link_length_error_m or None)
+            fit = fit_joint_offsets(kinematics, touches.subset(fold_of != k), ridge_m_per_rad=ridge,
+                                    link_lengths=link_lengths)
+            residual = sphere_residuals_m(kinematics, touches.subset(fold_of == k), fit.offset_rad,
+                                          fit.link_length_error_m or None)
             fold_ms.append(float(np.mean(residual**2)))
         fold_ms = np.array(fold_ms)
         rms = float(np.sqrt(fold_ms.mean()))

@@ -7,6 +7,7 @@ touches): every held-out object <= :data:`EVERY_OBJECT_MM`, median <= :data:`MED
 """
 from __future__ import annotations
 
+import functools
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,11 +24,16 @@ SPLITS = ("tuning", "held-out")
 
 def canonical_name(name: str) -> str:
     """A split member's name from itself or its sweep label (``generated-mug-3`` -> ``generated:mug/3``)."""
+    return _split_labels().get(name, name)
+
+
+@functools.cache
+def _split_labels() -> dict[str, str]:
+    """Sweep label -> name of every member of both splits (fixed lists: built once)."""
     import objects
     from objects.generated import HELD_OUT, TUNING
 
-    labels = {objects.file_label(member): member for member in (*TUNING, *HELD_OUT)}
-    return labels.get(name, name)
+    return {objects.file_label(member): member for member in (*TUNING, *HELD_OUT)}
 
 
 def split_of(name: str) -> str | None:
