@@ -21,14 +21,9 @@ import torch
 
 from reconstruction.gpis import GPIS
 from reconstruction.meshing import evaluate_coarse_to_fine, evaluate_dense, grid_axes
+from reconstruction.synthetic_contacts import sphere_contacts
 
 BOUNDS = ((-0.08, -0.08, -0.08), (0.08, 0.08, 0.08))
-
-
-def sphere_contacts(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    v = np.random.default_rng(seed).normal(size=(n, 3))
-    v /= np.linalg.norm(v, axis=1, keepdims=True)
-    return 0.05 * v, v
 
 
 def timed(fn, repeat: int = 1) -> float:
@@ -43,7 +38,7 @@ def timed(fn, repeat: int = 1) -> float:
 
 def measure(n: int, grid: int, candidates: int, dense: bool, seed: int = 0, partitioned: bool = False,
             **gpis_kwargs) -> dict:
-    points, normals = sphere_contacts(n + 20, seed)
+    points, normals = sphere_contacts(n + 20, seed=seed)
     if partitioned:
         from reconstruction.partitioned_gpis import PartitionedGPIS
 
@@ -57,7 +52,7 @@ def measure(n: int, grid: int, candidates: int, dense: bool, seed: int = 0, part
         add_times.append(timed(lambda: gp.add(p, nrm)))
     add_s = statistics.median(add_times)
 
-    cand = 0.065 * sphere_contacts(candidates, seed + 1)[1]
+    cand = 0.065 * sphere_contacts(candidates, seed=seed + 1)[1]
     tracker = gp.variance_tracker(cand)
     full_var_s = timed(tracker.variance)  # first call: full recomputation
     var_times = []
