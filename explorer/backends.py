@@ -22,6 +22,7 @@ import numpy as np
 
 from explorer.config import BackendConfig, RobotConfig, SensorConfig
 from explorer.positioner import FixedStand
+from explorer.planner import PlannerConfig
 from explorer.rig import PRIOR_GROWTH, PRIOR_MARGIN_M, Rig, object_prior
 from explorer.run import RunSettings
 from explorer.touch import ObjectPrior
@@ -56,7 +57,8 @@ def run_settings(config: BackendConfig) -> RunSettings:
     return RunSettings(object=object_name(config), robot=config.robot.spec, strategy=exploration.strategy,
                        touches=exploration.touches, seed=exploration.seed, use_normals=exploration.use_normals,
                        eval_every=exploration.eval_every, mesh_resolution=exploration.mesh_resolution,
-                       profile=config.simulation.profile if config.robot.backend == "sim" else "none")
+                       profile=config.simulation.profile if config.robot.backend == "sim" else "none",
+                       planner=PlannerConfig(probe_depth_m=exploration.probe_depth_m))
 
 
 @contextlib.contextmanager

@@ -25,6 +25,7 @@ and roughly where, and the exploration settings, from a TOML or JSON file.
     [exploration]
     touches = 50
     strategy = "variance"
+    probe_depth_m = 0.15                # how far past its target a touch may go before it is a miss
 
     [simulation]                        # backend = "sim" only
     profile = "hardware-like"           # ideal | datasheet-noise (default) | hardware-like | a .toml file
@@ -87,6 +88,12 @@ def _integer(key: str, value: Any, low: int, high: int | None = None) -> int:
 def _positive(key: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
         raise _fail(key, f"expected a positive number, got {value!r}")
+    return float(value)
+
+
+def _number(key: str, value: Any, low: float, high: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not low <= value < high:
+        raise _fail(key, f"expected a number in [{low:g}, {high:g}), got {value!r}")
     return float(value)
 
 
@@ -271,13 +278,16 @@ class ExplorationConfig:
     ----------
     touches : int
     strategy : str
-        ``variance``, ``random`` or ``uniform``.
+        One of :data:`STRATEGY_NAMES`.
     seed : int
     use_normals : bool
     eval_every : int
         Evaluate against the reference every this many touches (0: never).
     mesh_resolution : int
         Marching-cubes grid of the final mesh.
+    probe_depth_m : float
+        How far past its target a touch may probe before it counts as a miss, metres
+        (:class:`explorer.planner.PlannerConfig`).
     """
 
     touches: int = 50
@@ -286,10 +296,12 @@ class ExplorationConfig:
     use_normals: bool = True
     eval_every: int = 5
     mesh_resolution: int = 96
+    probe_depth_m: float = 0.15  # PlannerConfig's default (a test ties the two; not imported: kept light)
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         set_(self, "touches", _integer("exploration.touches", self.touches, 1))
+        set_(self, "probe_depth_m", _number("exploration.probe_depth_m", self.probe_depth_m, 0.0, 1.0))
         _choice("exploration.strategy", self.strategy, STRATEGY_NAMES)
         set_(self, "seed", _integer("exploration.seed", self.seed, 0))
         if not isinstance(self.use_normals, bool):

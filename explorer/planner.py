@@ -7,7 +7,8 @@ For a :class:`explorer.touch.Touch` (object frame) the planner
    once per planner);
 2. solves batched IK (``robots.ik.PadIK``) for the standoff point and the waypoints of a straight
    approach line through the target, all seeded from the standoff solution so the path stays on
-   one arm posture;
+   one arm posture; a touch that leaves its depth to the planner probes on past the target through
+   the prior box (at most ``probe_depth_m``), cut where IK or the posture gives out;
 3. rejects plans whose joint path jumps (another IK branch), or whose arm links - upper arm and
    forearm, not the hand and fingertip that must get close - enter the object's prior box.
 
@@ -34,7 +35,15 @@ class PlannerConfig:
     standoff_m : float
         Pad distance before the target where the guarded move starts.
     depth_m : float
-        How far beyond the target the guarded move may go before the touch counts as a miss.
+        How far beyond the target the guarded move may go before the touch counts as a miss, at
+        least (a touch may set its own).
+    probe_depth_m : float
+        A touch that leaves its depth to the planner (``Touch.depth_m`` None: the ``variance`` and
+        ``efficient`` proposals) goes on past the target until it leaves the prior box, at most this
+        far, wherever the arm can follow the line (the path is cut at the first waypoint IK or the
+        joint-step check fails, but never shorter than ``depth_m``). The GPIS's surface is a guess:
+        inside a cup or a bowl the real surface lies centimetres behind the lid the GPIS closes over
+        the opening, and a probe that stops 3 cm past it is a miss. ``depth_m`` switches it off.
     waypoint_spacing_m : float
         Spacing of IK waypoints along the approach line.
     max_joint_step_rad : float
@@ -66,6 +75,7 @@ class PlannerConfig:
 
     standoff_m: float = 0.03
     depth_m: float = 0.03
+    probe_depth_m: float = 0.15
     waypoint_spacing_m: float = 0.01
     max_joint_step_rad: float = 0.25
     reach_map_directions: int = 160
@@ -232,19 +242,34 @@ class ApproachPlanner:
         target_w, approach_w = self.positioner.to_world(touch.target_m[None], np.asarray(approach_object)[None], pose)
         target_w, approach_w = target_w[0], approach_w[0]
         depth = cfg.depth_m if touch.depth_m is None else touch.depth_m
+        required = len(approach_line(target_w, approach_w, cfg, depth))
+        if touch.depth_m is None:
+            depth = max(depth, min(cfg.probe_depth_m, self.prior_exit_m(touch.target_m, approach_object)))
         points = approach_line(target_w, approach_w, cfg, depth)
         standoff = self.ik.solve(points[:1], approach_w[None], seed)
         if not standoff.success[0]:
             return None
         path = self.ik.solve(points, np.repeat(approach_w[None], len(points), 0), standoff.q_rad[0])
-        if not path.success.all():
-            return None
         q = path.q_rad
-        if np.max(np.abs(np.diff(q, axis=0))) > cfg.max_joint_step_rad:
+        jumps = np.r_[False, np.max(np.abs(np.diff(q, axis=0)), axis=1) > cfg.max_joint_step_rad]
+        followed = path.success & ~jumps
+        usable = len(points) if followed.all() else int(np.argmin(followed))
+        if usable < required:
             return None
+        q, points = q[:usable], points[:usable]
         if self.arm_intrudes(q[0], pose):
             return None
         return ApproachPlan(touch, pose, target_w, approach_w, q, points, tilt_rad)
+
+    def prior_exit_m(self, target_m: np.ndarray, approach_dir: np.ndarray) -> float:
+        """Distance (metres) from ``target_m`` along ``approach_dir`` (object frame) to where the line
+        leaves the prior box; 0 when it has left it already (or never meets it)."""
+        lo, hi = self.prior.bounds(padding=0.0)
+        d = np.asarray(approach_dir, float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            far = np.where(d > 0, (hi - target_m) / d, (lo - target_m) / d)
+        far = np.where(np.abs(d) > 1e-12, far, np.inf)
+        return float(max(np.min(far), 0.0))
 
     def arm_points(self, q: np.ndarray, per_segment: int = 5) -> np.ndarray:
         """(k, 3) world points along the arm from the shoulder to the wrist (segments sampled)."""

@@ -27,7 +27,7 @@ def main(argv: list[str] | None = None) -> int:
     import robots
     from explorer.rerun_view import add_rerun_argument, observer_from_argument
     from explorer.strategies import STRATEGIES
-    from scripts._cli import check_gui, check_object, check_out_dir, check_robot, int_at_least
+    from scripts._cli import check_gui, check_object, check_out_dir, check_robot, float_above, int_at_least
 
     parser = argparse.ArgumentParser(prog="tactile-explore", description=__doc__.splitlines()[0])
     parser.add_argument("--config", type=Path, help="rig configuration (.toml or .json); see explorer/config.py")
@@ -47,12 +47,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--gui", action="store_true", help="show the PyBullet window (simulation only)")
     parser.add_argument("--profile", help="simulation profile: ideal, datasheet-noise (default), hardware-like "
                                           "or a .toml file (explorer/sim_profile.py); simulation only")
+    parser.add_argument("--probe-depth", type=float_above(0.0, inclusive=True), metavar="MM",
+                        help="how far past its target a touch may probe before it is a miss, mm (default 150; "
+                             "a configuration file's exploration.probe_depth_m)")
     add_rerun_argument(parser)
     args = parser.parse_args(argv)
     overrides = {k: v for k, v in dict(strategy=args.strategy, touches=args.touches, seed=args.seed).items()
                  if v is not None}
     if args.no_normals:
         overrides["use_normals"] = False
+    if args.probe_depth is not None:
+        from explorer.planner import PlannerConfig
+
+        overrides["planner"] = PlannerConfig(probe_depth_m=args.probe_depth / 1e3)
     if args.config is None:
         check_object(parser, args.object)
         check_robot(parser, args.robot)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 def main(argv: list[str] | None = None) -> int:
     from explorer.sweep import SweepConfig, run_sweep
-    from scripts._cli import check_out_dir, check_ray_address
+    from scripts._cli import check_out_dir, check_ray_address, float_above
 
     parser = argparse.ArgumentParser(prog="tactile-sweep", description=__doc__.splitlines()[0])
     parser.add_argument("--objects", default="sphere,box",
@@ -37,6 +37,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--mesh-resolution", type=int, default=96)
     parser.add_argument("--profile", default="datasheet-noise",
                         help="simulation profile: ideal, datasheet-noise (default), hardware-like or a .toml file")
+    parser.add_argument("--probe-depth", type=float_above(0.0, inclusive=True), metavar="MM",
+                        help="how far past its target a touch may probe, mm (default 150; 30 was the old planner)")
     args = parser.parse_args(argv)
     if args.seeds < 1:
         parser.error("--seeds must be at least 1")
@@ -59,7 +61,8 @@ def main(argv: list[str] | None = None) -> int:
                              seeds=tuple(range(args.first_seed, args.first_seed + args.seeds)),
                              normals=(True, False) if args.no_normals_too else (True,),
                              touches=args.touches, robot=args.robot, eval_every=args.eval_every,
-                             mesh_resolution=args.mesh_resolution, profile=args.profile)
+                             mesh_resolution=args.mesh_resolution, profile=args.profile,
+                             **({} if args.probe_depth is None else dict(probe_depth_m=args.probe_depth / 1e3)))
         report = run_sweep(config, args.out, workers=args.workers, ray_address=args.ray)
     except (ValueError, ImportError, FileNotFoundError) as exc:
         parser.error(str(exc))

@@ -278,3 +278,13 @@ def test_the_configuration_schema_offers_exactly_the_registered_strategies():
     from explorer.config import STRATEGY_NAMES
 
     assert sorted(STRATEGY_NAMES) == sorted(STRATEGIES)
+
+
+def test_the_configuration_schema_and_the_sweep_default_to_the_planners_probe_depth():
+    from explorer.config import ExplorationConfig
+    from explorer.planner import PlannerConfig
+    from explorer.sweep import SweepConfig
+
+    assert ExplorationConfig().probe_depth_m == PlannerConfig().probe_depth_m
+    assert SweepConfig(objects=("sphere",), strategies=("variance",), seeds=(0,)).probe_depth_m == \
+        PlannerConfig().probe_depth_m

@@ -10,12 +10,13 @@ import json
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from explorer.planner import PlannerConfig
 from explorer.run import RunSettings
 
 #: Shared settings a restarted sweep must repeat exactly (its finished runs used them).
-SHARED_KEYS = ("robot", "touches", "eval_every", "mesh_resolution", "profile", "calibration")
+SHARED_KEYS = ("robot", "touches", "eval_every", "mesh_resolution", "profile", "calibration", "probe_depth_m")
 #: What a sweep.json written before a key existed meant by it.
-_SHARED_DEFAULTS = {"profile": "datasheet-noise", "calibration": None}
+_SHARED_DEFAULTS = {"profile": "datasheet-noise", "calibration": None, "probe_depth_m": 0.03}
 
 
 @dataclass(frozen=True)
@@ -43,6 +44,8 @@ class SweepConfig:
     calibration : str or None
         An arm calibration file (``joint_calibration.json`` of ``scripts.calibrate_joints``) applied
         to every run (:mod:`explorer.arm_calibration`); its robot, profile and seed must be the sweep's.
+    probe_depth_m : float
+        How far past its target a touch may probe, metres (:class:`explorer.planner.PlannerConfig`).
     """
 
     objects: tuple[str, ...]
@@ -55,6 +58,7 @@ class SweepConfig:
     mesh_resolution: int = 96
     profile: str = "datasheet-noise"
     calibration: str | None = None
+    probe_depth_m: float = PlannerConfig.probe_depth_m
 
     def __post_init__(self) -> None:
         import objects
@@ -103,6 +107,8 @@ class SweepConfig:
             raise ValueError(f"seeds must be non-negative integers, got {self.seeds!r}")
         if not all(isinstance(n, bool) for n in self.normals):
             raise ValueError(f"normals must be booleans, got {self.normals!r}")
+        if not isinstance(self.probe_depth_m, (int, float)) or not 0.0 <= self.probe_depth_m < 1.0:
+            raise ValueError(f"probe_depth_m must be a number of metres in [0, 1), got {self.probe_depth_m!r}")
         for name, least in (("touches", 1), ("eval_every", 0), ("mesh_resolution", 8)):
             value = getattr(self, name)
             if not isinstance(value, int) or value < least:
@@ -136,7 +142,8 @@ class SweepRun:
         return RunSettings(object=self.object, robot=config.robot, strategy=self.strategy,
                            touches=config.touches, seed=self.seed, use_normals=self.use_normals,
                            eval_every=config.eval_every, mesh_resolution=config.mesh_resolution,
-                           profile=config.profile, calibration=config.calibration)
+                           profile=config.profile, calibration=config.calibration,
+                           planner=PlannerConfig(probe_depth_m=float(config.probe_depth_m)))
 
 
 def object_label(name: str) -> str:
