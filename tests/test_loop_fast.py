@@ -116,3 +116,43 @@ def test_a_miss_held_back_short_of_its_line_sweeps_only_what_the_pad_passed(fini
     held = loop._swept(plan, np.array([0.0, 0.0, 0.065]))                # stopped 3.5 cm along
     np.testing.assert_array_equal(held, line[:3])
     assert held[-1, 2] - 0.065 >= -loop.config.free_space_value
+
+
+def test_a_press_far_past_its_target_sweeps_the_line_a_plain_touch_would_have(finished):
+    """The pad went on through where the strategy expected the surface: the line up to the planner's
+    ``depth_m`` past the target is free space (what a miss would have swept); nothing nearer the
+    contact, and nothing when the contact came within a pad's half width of that depth."""
+    from explorer.planner import ApproachPlan
+    from explorer.positioner import StandPose
+
+    loop, _, _ = finished
+    down = np.array([0.0, 0.0, -1.0])
+    line = np.column_stack([np.zeros(11), np.zeros(11), np.linspace(0.13, 0.03, 11)])   # 1 cm steps, down
+    target = line[3]                                                                    # z = 0.10
+    plan = ApproachPlan(Touch(target, down), StandPose(), target, down, line, line)
+    depth = loop.planner.config.depth_m
+    far = loop._swept_through_target(plan, target + 0.06 * down)
+    np.testing.assert_array_equal(far, line[(line - target) @ down <= depth + 1e-9])
+    assert np.all((target + 0.06 * down - far) @ down >= -loop.config.free_space_value)
+    near = loop._swept_through_target(plan, target + (depth - 0.5 * loop.config.free_space_value) * down)
+    assert len(near) == 0
+
+
+def test_a_probe_through_a_guessed_surface_records_its_free_space_and_a_restore_keeps_it(tmp_path):
+    world, rig = sphere_rig(RADIUS_M)
+    guessed = Touch(np.array([0.0, 0.0, RADIUS_M + 0.045]), np.array([0.0, 0.0, -1.0]), strategy="scripted",
+                    depth_m=0.08)
+    loop = ExplorationLoop(rig, FakePlanner(rig.positioner), ScriptedStrategy(scripted_touches()[:2] + [guessed]),
+                           GPIS(bounds=rig.prior.bounds()), LoopConfig(touches=3, proposal_rounds=1,
+                                                                       repress_force_n=0.0))
+    records = loop.run()
+    assert [r.kind for r in records] == ["contact", "contact", "contact"]
+    swept = records[2].free_space_m
+    assert swept is not None and len(swept)
+    assert np.all(swept[:, 2] >= RADIUS_M - loop.config.free_space_value - 1e-9)
+    _, fresh_rig = sphere_rig(RADIUS_M)
+    fresh = ExplorationLoop(fresh_rig, FakePlanner(fresh_rig.positioner), ScriptedStrategy([]),
+                            GPIS(bounds=fresh_rig.prior.bounds()), LoopConfig(touches=3))
+    fresh.restore(records)
+    points = np.random.default_rng(1).uniform(*loop.gpis.bounds, size=(100, 3))
+    np.testing.assert_allclose(fresh.gpis.mean(points), loop.gpis.mean(points), rtol=0, atol=1e-12)
