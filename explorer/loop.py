@@ -74,10 +74,8 @@ class LoopConfig:
         round's unreachable targets are avoided by the next (an object that cannot be turned has
         a whole side out of reach, and the most uncertain places are all there).
     free_space_value : float
-        Implicit-function value given to points an approach swept (about minus half the pad width:
-        the pad passed there, so the surface is at least that far): the whole line of a miss, and
-        the line of a press that went on through where the GPIS put the surface (see
-        :meth:`ExplorationLoop._swept_through_target`).
+        Implicit-function value given to points swept by a missed approach (about minus half the
+        pad width: the pad passed there, so the surface is at least that far).
     free_space_noise : float
         Standard deviation of those values.
     max_unreachable_in_a_row : int
@@ -291,7 +289,7 @@ class ExplorationLoop:
                 self.strategy.accepted(Touch(record.target_m, record.approach_dir, strategy=record.strategy))
             if record.kind == "contact":
                 self.evidence.add_contact(record.position_m, record.normal, self._normal_noise(record))
-            if record.free_space_m is not None:
+            elif record.kind == "miss" and record.free_space_m is not None:
                 self.evidence.add_free_space(record.free_space_m)
         if records and records[-1].kind == "realign":
             last = records[-1]
@@ -323,7 +321,6 @@ class ExplorationLoop:
                              plan.stand.yaw_rad, plan.stand.tilt_rad, t_s=self.robot.time_s())
         if approach.stopped:
             start_pad = self.kin.pose_of_one(self.robot.joint_positions())[0]
-            swept_before_contact = self._swept_through_target(plan, start_pad)
             remaining = plan.path_q[min(approach.waypoint_index + 1, len(plan.path_q) - 1):]
             press_speed = speed * cfg.press_speed_mps / cfg.approach_speed_mps
             press = self.robot.guarded_move(remaining, stop=lambda: self._pressed(start_pad),
@@ -333,8 +330,6 @@ class ExplorationLoop:
                 record.repress_t_s = self._repress(remaining[min(press.waypoint_index, len(remaining) - 1):],
                                                    press_speed)
             record = self._contact_record(record)
-            if len(swept_before_contact):
-                record.free_space_m = self.evidence.inside_bounds(self.positioner.to_object(swept_before_contact))
         record.press_t_s = (press_start, self.robot.time_s())
         self._retract(plan)
         self._poll()
@@ -351,7 +346,6 @@ class ExplorationLoop:
         elif record.kind == "miss":
             swept = self._swept(plan, approach.q)
             record.free_space_m = self.evidence.inside_bounds(self.positioner.to_object(swept))
-        if record.free_space_m is not None and len(record.free_space_m):
             self._add_free_space(record.free_space_m)
         return record
 
@@ -386,25 +380,6 @@ class ExplorationLoop:
         if reached >= along[-1] - 0.002:
             return line
         return line[along <= reached + self.config.free_space_value]
-
-    def _swept_through_target(self, plan: ApproachPlan, pad_world_m: np.ndarray) -> np.ndarray:
-        """(k, 3) world points of the approach line from the standoff to the planner's ``depth_m``
-        past the target, when the pad met the surface (at ``pad_world_m``) farther than that: the line
-        a plain touch would have swept as a miss (none otherwise).
-
-        Such a probe went through a surface the GPIS only guessed (the lid it closes over a cup, a
-        bulge beside a tool's arm); without this the guess stays and the strategy proposes it again,
-        and the next probe lands beside the same contact. The rest of the line, nearer the contact,
-        is left out: constant free-space values up to half a pad from a contact distorted the field
-        (bowl 6.2 -> 12.6 mm, wedge 2.2 -> 9.8 mm, refitting recorded runs).
-        """
-        line = plan.path_world_m
-        along = (line - plan.target_world_m) @ plan.approach_world
-        reached = float((pad_world_m - plan.target_world_m) @ plan.approach_world)
-        depth = self.planner.config.depth_m
-        if reached + self.config.free_space_value < depth:
-            return line[:0]
-        return line[along <= depth + 1e-9]
 
     def _retract(self, plan: ApproachPlan) -> None:
         """Back to the standoff; if a contact blocks the direct move, back out along the path."""

@@ -214,7 +214,7 @@ def detect_presses(readings, config: PressureDetectorConfig) -> list[DetectedPre
 def _touch_from_event(event) -> TouchOutcome:
     """A touch event as a not-yet-detected outcome (kind ``miss`` until a contact is found)."""
     f = event.fields
-    free_space = f.get("free_space_m")  # a miss's line, or a press's part past its target
+    free_space = f.get("free_space_m") if f.get("result") == "miss" else None
     return TouchOutcome(int(f.get("index", -1)), "miss", np.asarray(f["target_m"], float),
                         np.asarray(f["approach_dir"], float), float(f.get("stand_yaw_rad", 0.0)),
                         float(f.get("stand_tilt_rad", 0.0)), strategy=str(f.get("strategy", "")),
@@ -466,8 +466,7 @@ class SessionReplay:
     # ------------------------------------------------------------------ reconstruction
     def _fit(self, touches: list[TouchOutcome], settings: ReplaySettings, use_normals: bool,
              notes: list[str]) -> GPIS:
-        """The GPIS, updated in the loop's order: contacts one by one, each touch's swept free space
-        after its contact."""
+        """The GPIS, updated in the loop's order: contacts one by one, misses as free space."""
         options = {k: v for k, v in (("noise", settings.noise), ("normal_noise", settings.normal_noise))
                    if v is not None}
         gpis = GPIS(kernel=settings.kernel, use_normals=use_normals,
@@ -482,9 +481,9 @@ class SessionReplay:
                 except ValueError as err:  # outside the prior box (teleop keeps such contacts unmodelled)
                     touch.kind = "not_modelled"
                     notes.append(f"touch {touch.index}: not modelled: {err}")
-            elif touch.kind == "miss" and not self.teleop and touch.free_space_m is None:
-                touch.free_space_m = evidence.inside_bounds(self._swept_line(touch))  # a teleop path is no line
-            if touch.free_space_m is not None and not self.teleop:
+            elif touch.kind == "miss" and not self.teleop:  # a teleop path is not a planned line
+                if touch.free_space_m is None:
+                    touch.free_space_m = evidence.inside_bounds(self._swept_line(touch))
                 evidence.add_free_space(touch.free_space_m)
         return gpis
 

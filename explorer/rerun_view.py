@@ -368,7 +368,7 @@ def log_session(session_dir: Path, observer: RerunObserver, use_normals: bool | 
             strategy=str(f.get("strategy", "")))
         if record.kind == "contact" and record.position_m is not None:
             evidence.add_contact(record.position_m[None], record.normal[None] if normals else None)
-        if f.get("free_space_m") is not None:
+        elif record.kind == "miss" and f.get("free_space_m") is not None:
             evidence.add_free_space(np.asarray(f["free_space_m"], float).reshape(-1, 3))
         observer.touch(record, event.t_s)
         touches += 1
