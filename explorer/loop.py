@@ -260,6 +260,7 @@ class ExplorationLoop:
         self.state.tried_m.append(plan.touch.target_m)
         record = self._execute(plan, index)
         record.strategy = plan.touch.strategy
+        self.state.passed_m.extend(record.passed_points(-self.config.free_space_value))
         return self._finish(record)
 
     def restore(self, records: list[TouchOutcome]) -> None:
@@ -287,6 +288,7 @@ class ExplorationLoop:
                 self.state.unreachable_m.append(record.target_m)
             if record.strategy and record.strategy != "realign":
                 self.strategy.accepted(Touch(record.target_m, record.approach_dir, strategy=record.strategy))
+            self.state.passed_m.extend(record.passed_points(-self.config.free_space_value))
             if record.kind == "contact":
                 self.evidence.add_contact(record.position_m, record.normal, self._normal_noise(record))
             elif record.kind == "miss" and record.free_space_m is not None:

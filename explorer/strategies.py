@@ -39,6 +39,10 @@ class ExplorationState:
         Targets already touched. ``variance`` avoids them too: where the pad lands away from the
         target (an edge, a tip) the variance at the target stays high, and without this it would
         be chosen again and again.
+    passed_m : list of (3,) float
+        Points a pad went through beyond its target on the way to a contact (where the GPIS had put
+        the surface but there was none). ``variance`` avoids them: the guessed surface stays until
+        evidence removes it, and each probe through it lands beside the last one.
     motion : explorer.motion_time.MotionTimeEstimator or None
         Expected seconds of candidate touches from the current arm and stand (``efficient``
         divides by it); None: every touch is taken to cost the same.
@@ -49,6 +53,7 @@ class ExplorationState:
     touches: int = 0
     unreachable_m: list[np.ndarray] = field(default_factory=list)
     tried_m: list[np.ndarray] = field(default_factory=list)
+    passed_m: list[np.ndarray] = field(default_factory=list)
     motion: object | None = None
 
 
@@ -174,6 +179,9 @@ class VarianceStrategy(TouchStrategy):
         neighbour when the first is unreachable).
     avoid_radius_m : float
         Candidates this close to an unreachable target are skipped.
+    passed_radius_m : float
+        Candidates this close to a point a pad went through (``ExplorationState.passed_m``) are
+        skipped: about the pad's width.
     min_gradient : float
         Below this gradient magnitude (about 1 on an observed surface) the approach aims at the
         prior centre instead of along the gradient.
@@ -184,8 +192,10 @@ class VarianceStrategy(TouchStrategy):
     name = "variance"
 
     def __init__(self, grid: int = 24, initial_touches: int = 6, separation_m: float = 0.015,
-                 avoid_radius_m: float = 0.01, min_gradient: float = 0.5, shortlist: int = 400):
+                 avoid_radius_m: float = 0.01, min_gradient: float = 0.5, shortlist: int = 400,
+                 passed_radius_m: float = 0.018):
         self.grid = grid
+        self.passed_radius_m = passed_radius_m
         self.shortlist = shortlist
         self.min_gradient = min_gradient
         self.initial_touches = initial_touches
@@ -257,7 +267,8 @@ class VarianceStrategy(TouchStrategy):
     def _ranked_touches(self, targets, approach, scores, state: ExplorationState, count: int) -> list[Touch]:
         """Touches in descending ``scores``, away from avoided targets and from each other."""
         avoid = state.unreachable_m + state.tried_m
-        keep = _not_near(targets, avoid, self.avoid_radius_m) & (np.linalg.norm(approach, axis=1) > 1e-9)
+        keep = (_not_near(targets, avoid, self.avoid_radius_m) & _not_near(targets, state.passed_m, self.passed_radius_m)
+                & (np.linalg.norm(approach, axis=1) > 1e-9))
         touches: list[Touch] = []
         for i in np.flatnonzero(keep)[np.argsort(-scores[keep], kind="stable")]:
             if any(np.linalg.norm(targets[i] - t.target_m) < self.separation_m for t in touches):

@@ -138,3 +138,13 @@ class TouchOutcome:
     baseline_pa: float | None = None
     quality: object | None = None
     repress_t_s: float | None = None
+
+    def passed_points(self, margin_m: float, spacing_m: float = 0.01) -> np.ndarray:
+        """(k, 3) points of the approach line from the target on that the pad went through before it
+        met the surface, at least ``margin_m`` short of the contact, every ``spacing_m``; object
+        frame. Empty without a contact position or when the contact came before that."""
+        if self.position_m is None:
+            return np.zeros((0, 3))
+        reached = float((np.asarray(self.position_m) - self.target_m) @ self.approach_dir)
+        along = np.arange(0.0, reached - margin_m + 1e-12, spacing_m)
+        return self.target_m + along[:, None] * self.approach_dir
