@@ -116,3 +116,25 @@ def test_a_miss_held_back_short_of_its_line_sweeps_only_what_the_pad_passed(fini
     held = loop._swept(plan, np.array([0.0, 0.0, 0.065]))                # stopped 3.5 cm along
     np.testing.assert_array_equal(held, line[:3])
     assert held[-1, 2] - 0.065 >= -loop.config.free_space_value
+
+
+def test_a_probe_through_a_guessed_surface_is_remembered_and_a_restore_keeps_it():
+    """The pad went 45 mm past where the strategy expected the surface: the line it passed (up to a
+    pad's half width before the contact) is kept for the strategy, after a resume too."""
+    world, rig = sphere_rig(RADIUS_M)
+    guessed = Touch(np.array([0.0, 0.0, RADIUS_M + 0.045]), np.array([0.0, 0.0, -1.0]), strategy="scripted",
+                    depth_m=0.08)
+    loop = ExplorationLoop(rig, FakePlanner(rig.positioner), ScriptedStrategy(scripted_touches()[:2] + [guessed]),
+                           GPIS(bounds=rig.prior.bounds()), LoopConfig(touches=3, proposal_rounds=1,
+                                                                       repress_force_n=0.0))
+    records = loop.run()
+    assert [r.kind for r in records] == ["contact", "contact", "contact"]
+    passed = np.array(loop.state.passed_m)
+    assert len(passed) >= 3
+    assert np.all(passed[:, 2] >= RADIUS_M - loop.config.free_space_value - 1e-9)
+    assert np.all(passed[:, 2] <= guessed.target_m[2] + 1e-12)
+    _, fresh_rig = sphere_rig(RADIUS_M)
+    fresh = ExplorationLoop(fresh_rig, FakePlanner(fresh_rig.positioner), ScriptedStrategy([]),
+                            GPIS(bounds=fresh_rig.prior.bounds()), LoopConfig(touches=3))
+    fresh.restore(records)
+    np.testing.assert_array_equal(np.array(fresh.state.passed_m), passed)

@@ -3,7 +3,7 @@ import pytest
 
 from explorer.strategies import (ExplorationState, RandomStrategy, UniformStrategy, VarianceStrategy,
                                  farthest_point_order, fibonacci_directions, make_strategy)
-from explorer.touch import ObjectPrior, Touch
+from explorer.touch import ObjectPrior, Touch, TouchOutcome
 from reconstruction.gpis import GPIS
 
 PRIOR = ObjectPrior(np.zeros(3), np.full(3, 0.05))
@@ -77,6 +77,28 @@ def test_variance_strategy_avoids_unreachable_targets():
     second = VarianceStrategy().propose(state, 1)[0]
     assert np.linalg.norm(second.target_m - first.target_m) > 0.01
 
+
+
+def test_variance_strategy_avoids_where_a_pad_went_through_to_a_farther_contact():
+    d = fibonacci_directions(60)
+    gp = _sphere_gp(d[d[:, 2] > 0.2])
+    first = VarianceStrategy().propose(ExplorationState(PRIOR, gp, touches=40), 1)[0]
+    probe = TouchOutcome(0, "contact", first.target_m, first.approach_dir,
+                         position_m=first.target_m + 0.05 * first.approach_dir)
+    passed = probe.passed_points(margin_m=0.009)
+    state = ExplorationState(PRIOR, gp, touches=40, passed_m=list(passed))
+    strategy = VarianceStrategy()
+    second = strategy.propose(state, 1)[0]
+    assert np.min(np.linalg.norm(passed - second.target_m, axis=1)) > strategy.passed_radius_m
+
+
+def test_passed_points_run_from_the_target_to_a_margin_short_of_the_contact():
+    target, along = np.array([0.01, 0.02, 0.03]), np.array([0.0, 1.0, 0.0])
+    far = TouchOutcome(0, "contact", target, along, position_m=target + 0.05 * along)
+    np.testing.assert_allclose(far.passed_points(0.009), target + np.arange(5)[:, None] * 0.01 * along, atol=1e-12)
+    before = TouchOutcome(0, "contact", target, along, position_m=target - 0.002 * along)
+    assert before.passed_points(0.009).shape == (0, 3)
+    assert TouchOutcome(0, "miss", target, along).passed_points(0.009).shape == (0, 3)
 
 def test_variance_strategy_starts_uniform():
     touches = VarianceStrategy().propose(ExplorationState(PRIOR), 2)
