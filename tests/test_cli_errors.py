@@ -48,6 +48,7 @@ def snapshot(directory):
     (["--object", "missing.stl"], "--object missing.stl: mesh file not found"),
     (["--robot", "r2d2"], "--robot: unknown robot 'r2d2'; choose one of"),
     (["--strategy", "greedy"], "argument --strategy: invalid choice"),
+    (["--probe-depth", "-5"], "argument --probe-depth: must be a finite number >= 0, got -5"),
 ])
 def test_explore_refuses_bad_arguments_before_anything_is_written(tmp_path, capsys, args, message):
     from scripts.explore import main
@@ -252,6 +253,14 @@ def test_teleop_with_a_window_but_no_display_fails_at_once(tmp_path, capsys, mon
 
 
 # ---- tactile-sweep, tactile-gpis-bench, sensor-monitor ---------------------------------------
+
+def test_sweep_refuses_a_negative_probe_depth(tmp_path, capsys):
+    from scripts.sweep import main
+
+    status, err = run_main(main, ["--objects", "sphere", "--probe-depth", "-1", "--out", str(tmp_path / "s")], capsys)
+    assert status == 2 and "argument --probe-depth: must be a finite number >= 0" in last_line(err)
+    assert not (tmp_path / "s").exists()
+
 
 def test_sweep_to_an_unreachable_ray_cluster_fails_at_once(tmp_path, capsys):
     from scripts.sweep import main
