@@ -43,6 +43,44 @@ from sensor.normal_estimation import SettlingConfig
 from sensor.reading import Reading
 
 
+#: Recovery after a blocked free move (the arm's protective stop): joint speed of its moves, rad/s
+#: (a recovery jog) ...
+RECOVERY_SPEED_RAD_S = 0.2
+#: ... and how far inside its software limits each joint is first brought, radians.
+RECOVERY_LIMIT_CLEARANCE_RAD = 0.05
+
+
+def back_out(robot, toward_q: np.ndarray, lower_rad: np.ndarray, upper_rad: np.ndarray,
+             speed_rad_s: float = RECOVERY_SPEED_RAD_S,
+             clearance_rad: float = RECOVERY_LIMIT_CLEARANCE_RAD) -> None:
+    """Recovery after a blocked move: off the joint stops, then back to where the move started, slowly.
+
+    A blocked free move can leave the hand pressed on the table or the object with joints that
+    the contact pushed onto their mechanical stops (beyond the software limits) and every motor
+    saturated towards a target far away. The stops take any load, so the contact, the stops and
+    friction lock the arm: the next long move at transfer speed presses the hand harder (issue 12:
+    wrist on the table at 3-8 kN, shoulder and wrist joints on their stops, 145 deg from rest, no
+    joint moving, while the joint torques balance). Taking the joints off their stops first (a
+    step of a few degrees to ``clearance_rad`` inside the software limits) opens the lock;
+    reversing the blocked move then lifts the hand off. Both at ``speed_rad_s``; never raises
+    for a target not reached (the next move says whether the arm is free).
+
+    Parameters
+    ----------
+    robot : robots.interface.Robot
+    toward_q : (dof,) float
+        Where the blocked move started, radians.
+    lower_rad, upper_rad : (dof,) float
+        Software joint limits, radians.
+    """
+    lower, upper = np.asarray(lower_rad, float), np.asarray(upper_rad, float)
+    margin = np.minimum(clearance_rad, 0.5 * (upper - lower))
+    off_stops = np.clip(robot.joint_positions(), lower + margin, upper - margin)
+    robot.guarded_move(off_stops[None], stop=lambda: False, speed_rad_s=speed_rad_s)
+    target = np.clip(np.asarray(toward_q, float), lower, upper)
+    robot.guarded_move(target[None], stop=lambda: False, speed_rad_s=speed_rad_s)
+
+
 @dataclass(frozen=True)
 class LoopConfig:
     """Exploration settings (SI units).
@@ -303,7 +341,7 @@ class ExplorationLoop:
         cfg = self.config
         t0 = time.perf_counter()
         if plan.stand != self.positioner.pose():
-            self.robot.move_joints(self.planner.rest_q, cfg.transfer_speed_rad_s)
+            self._to_rest()
             self.positioner.move_to(plan.stand)
         if not self._transfer(plan.standoff_q):
             self.state.unreachable_m.append(plan.touch.target_m)
@@ -357,17 +395,36 @@ class ExplorationLoop:
         Returns False (arm back at rest) when ``q`` itself cannot be reached: the arm would
         touch the object there (the planner checks only the arm up to the wrist).
         """
-        speed = self.config.transfer_speed_rad_s
         for attempt in ("direct", "via rest"):
             try:
                 if attempt == "via rest":
-                    self.robot.move_joints(self.planner.rest_q, speed)
-                self.robot.move_joints(q, speed)
+                    self._free_move(self.planner.rest_q)
+                self._free_move(q)
                 return True
             except MoveNotReachedError as err:
                 self.recorder.event("transfer_blocked", self.robot.time_s(), message=f"{attempt}: {err}")
-        self.robot.move_joints(self.planner.rest_q, speed)
+        self._to_rest()
         return False
+
+    def _free_move(self, q: np.ndarray) -> None:
+        """Move to ``q`` at transfer speed; when blocked, step back the way it came
+        (:func:`back_out`) and raise the MoveNotReachedError."""
+        start = self.robot.joint_positions()
+        try:
+            self.robot.move_joints(q, self.config.transfer_speed_rad_s)
+        except MoveNotReachedError:
+            back_out(self.robot, start, self.kin.lower_rad, self.kin.upper_rad)
+            raise
+
+    def _to_rest(self) -> None:
+        """To the rest pose; when blocked (``rest_blocked`` event), once more at recovery speed
+        (a real arm's recovery after a protective stop). Still blocked: the MoveNotReachedError
+        ends the run, with what was recorded kept."""
+        try:
+            self._free_move(self.planner.rest_q)
+        except MoveNotReachedError as err:
+            self.recorder.event("rest_blocked", self.robot.time_s(), message=str(err))
+            self.robot.move_joints(self.planner.rest_q, RECOVERY_SPEED_RAD_S)
 
     def _swept(self, plan: ApproachPlan, q_end: np.ndarray) -> np.ndarray:
         """(k, 3) world points of the approach line the pad passed on a miss.
@@ -391,7 +448,7 @@ class ExplorationLoop:
         except MoveNotReachedError as err:
             self.recorder.event("retract_blocked", self.robot.time_s(), message=str(err))
             self.robot.guarded_move(plan.path_q[::-1], stop=lambda: False, speed_rad_s=0.2 * speed)
-            self.robot.move_joints(self.planner.rest_q, speed)
+            self._to_rest()
 
     def _contact_record(self, record: TouchOutcome) -> TouchOutcome:
         record.baseline_pa = self._baseline_pa

@@ -1,0 +1,86 @@
+"""The loop's recovery from a blocked free move (issue 12: the arm wedged on the table).
+
+A blocked transfer leaves the hand pressed on the table or the object, joints pushed onto their
+mechanical stops and every motor saturated; the old recovery, a move to rest at transfer speed
+straight from there, wedged the hand harder and no joint moved again (the run ended). The loop
+now backs out first (:func:`explorer.loop.back_out`).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from explorer.loop import RECOVERY_LIMIT_CLEARANCE_RAD, RECOVERY_SPEED_RAD_S, ExplorationLoop, LoopConfig, back_out
+from robots.interface import GuardedMoveResult
+
+#: ARMAR-6's rest pose and a standoff whose straight transfer from rest sweeps the hand over the
+#: coffee can (stand yaw 120 deg, upright) onto the table: the pose of the failed calibrated run.
+REST_DEG = (-16.85, 6.15, 40.46, 31.75, -111.23, 36.99, 22.81, 1.17)
+STANDOFF_DEG = (59.86, -10.01, -18.76, -108.76, -48.53, -85.08, 53.3, 60.0)
+
+
+class _Events:
+    def __init__(self):
+        self.kinds: list[str] = []
+
+    def event(self, kind, t_s, **fields):
+        self.kinds.append(kind)
+
+
+class _MovesRecorded:
+    """A robot that goes wherever it is sent and records each guarded move's path and speed."""
+
+    def __init__(self, q):
+        self.q = np.asarray(q, float)
+        self.moves: list[tuple[np.ndarray, float]] = []
+
+    def joint_positions(self):
+        return self.q.copy()
+
+    def guarded_move(self, path, stop, speed_rad_s=0.2):
+        path = np.asarray(path, float)
+        self.moves.append((path, speed_rad_s))
+        self.q = path[-1].copy()
+        return GuardedMoveResult(stopped=False, q=self.q.copy(), waypoint_index=len(path) - 1)
+
+
+def test_back_out_takes_joints_off_their_stops_then_reverses_slowly():
+    lower, upper = np.radians([-20.0, -60.0, -45.0]), np.radians([130.0, 60.0, 60.0])
+    pushed = np.radians([-21.0, 61.0, 10.0])  # two joints beyond their software limits, as contact leaves them
+    start = np.radians([40.0, 20.0, 1.0])
+    robot = _MovesRecorded(pushed)
+    back_out(robot, start, lower, upper)
+    (first, speed1), (second, speed2) = robot.moves
+    np.testing.assert_allclose(first[-1], [lower[0] + RECOVERY_LIMIT_CLEARANCE_RAD,
+                                           upper[1] - RECOVERY_LIMIT_CLEARANCE_RAD, pushed[2]])
+    np.testing.assert_allclose(second[-1], start)
+    assert speed1 == speed2 == RECOVERY_SPEED_RAD_S
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_a_transfer_blocked_on_the_table_ends_at_rest_or_its_target_not_wedged():
+    from explorer.positioner import StandPose
+    from explorer.rig import Rig, object_prior
+    from explorer.simulation import build_scene
+    from fakes import FakePlanner, ScriptedStrategy
+    from reconstruction.gpis import GPIS
+
+    rest, standoff = np.radians(REST_DEG), np.radians(STANDOFF_DEG)
+    with build_scene("coffee_can", "armar6", seed=0, profile="hardware-like") as scene:
+        rig = Rig(scene.arm, scene.sensor, scene.kinematics, scene.stand,
+                  object_prior(scene.object_model.mesh), None, {}, scene.pad)
+        planner = FakePlanner(scene.stand)
+        planner.rest_q = rest
+        events = _Events()
+        loop = ExplorationLoop(rig, planner, ScriptedStrategy([]), GPIS(bounds=rig.prior.bounds()),
+                               LoopConfig(), events)
+        scene.stand.move_to(StandPose(np.radians(120.0), 0.0))
+        scene.arm.reset_joint_positions(rest)
+        scene.arm.hold(0.2)
+        reached = loop._transfer(standoff)  # raised MoveNotReachedError (wedged at rest's 145 deg) before
+        q = scene.arm.servo_positions()
+        goal = standoff if reached else rest
+        assert np.max(np.abs(q - goal)) < 2.5e-3
+        assert reached or events.kinds.count("transfer_blocked") == 2
+        table = [c for c in scene.arm.contacts() if c.other == "table" and c.normal_force_n > 1.0]
+        assert not table, f"still pressed on the table: {table}"
