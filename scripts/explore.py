@@ -47,6 +47,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--gui", action="store_true", help="show the PyBullet window (simulation only)")
     parser.add_argument("--profile", help="simulation profile: ideal, datasheet-noise (default), hardware-like "
                                           "or a .toml file (explorer/sim_profile.py); simulation only")
+    parser.add_argument("--calibration", type=Path, metavar="FILE",
+                        help="joint calibration of this robot, profile and seed (joint_calibration.json of "
+                             "scripts.calibrate_joints) applied to the simulated arm; simulation only")
     parser.add_argument("--probe-depth", type=float_above(0.0, inclusive=True), metavar="MM",
                         help="how far past its target a touch may probe before it is a miss, mm (default 150; "
                              "a configuration file's exploration.probe_depth_m)")
@@ -67,7 +70,8 @@ def main(argv: list[str] | None = None) -> int:
             check_gui(parser)
     else:
         for flag, value in (("--object", args.object), ("--robot", args.robot), ("--gui", args.gui or None),
-                            ("--units", None if args.units == "m" else args.units), ("--profile", args.profile)):
+                            ("--units", None if args.units == "m" else args.units), ("--profile", args.profile),
+                            ("--calibration", args.calibration)):
             if value is not None:
                 parser.error(f"{flag} does not go with --config: set it in the configuration file")
     if args.profile is not None:
@@ -77,6 +81,8 @@ def main(argv: list[str] | None = None) -> int:
             get_profile(args.profile)
         except ValueError as error:
             parser.error(f"--profile: {error}")
+    if args.calibration is not None:
+        _check_calibration(parser, args)
     check_out_dir(parser, args.out, resume=args.resume)
     if args.config is None:
         try:
@@ -94,7 +100,8 @@ def main(argv: list[str] | None = None) -> int:
         from explorer.run import RunSettings, explore
 
         settings = dataclasses.replace(RunSettings(object=object_name, robot=args.robot or "armar3",
-                                                   gui=args.gui, profile=args.profile or "datasheet-noise"),
+                                                   gui=args.gui, profile=args.profile or "datasheet-noise",
+                                                   calibration=None if args.calibration is None else str(args.calibration)),
                                        **overrides)
 
         def run(progress, status):
@@ -120,6 +127,24 @@ def main(argv: list[str] | None = None) -> int:
     print(json.dumps({k: result.metrics.get(k) for k in SUMMARY_KEYS}, indent=2))
     print(f"outputs in {args.out}")
     return 0
+
+
+def _check_calibration(parser: argparse.ArgumentParser, args) -> None:
+    """``--calibration`` must be a readable calibration of this run's robot, profile and seed."""
+    from explorer.arm_calibration import read_arm_calibration
+
+    try:
+        calibration = read_arm_calibration(args.calibration)
+    except ValueError as error:
+        parser.error(f"--calibration: {error}")
+    from explorer.sim_profile import PROFILES
+
+    run = (args.robot or "armar3", args.profile or "datasheet-noise", 0 if args.seed is None else args.seed)
+    profile_known = run[1] in PROFILES  # a profile file's name is checked once it is loaded
+    if (calibration.robot, calibration.seed) != (run[0], run[2]) or (profile_known and calibration.profile != run[1]):
+        parser.error(f"--calibration {args.calibration} is of robot {calibration.robot!r}, profile "
+                     f"{calibration.profile!r}, seed {calibration.seed}; this run is {run[0]!r}, {run[1]!r}, seed "
+                     f"{run[2]}: give the same --robot, --profile and --seed (the seed draws the arm's errors)")
 
 
 def _is_device_failure(error: BaseException) -> bool:

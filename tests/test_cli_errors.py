@@ -314,3 +314,20 @@ def test_the_progress_bar_of_a_resumed_run_starts_at_the_recorded_touches(record
     assert _with_progress(settings, run, recorded_run, resume=True) == ("done", 0)
     err = capsys.readouterr().err
     assert seen and "2/5" in err and "5/5" in err and "0/5" not in err
+
+
+def test_explore_refuses_a_calibration_of_another_arm_or_none_at_all(tmp_path, capsys):
+    import json
+
+    from scripts.explore import main
+
+    calibration = tmp_path / "joint_calibration.json"
+    calibration.write_text(json.dumps(dict(robot="armar6", profile="hardware-like", seed=0,
+                                           fitted_offset_deg=[0.0] * 8)))
+    status, err = run_main(main, ["--object", "sphere", "--robot", "armar3", "--profile", "hardware-like",
+                                  "--calibration", str(calibration), "--out", str(tmp_path / "run")], capsys)
+    assert status == 2 and "is of robot 'armar6'" in last_line(err) and "--robot" in last_line(err)
+    status, err = run_main(main, ["--object", "sphere", "--calibration", str(tmp_path / "none.json"),
+                                  "--out", str(tmp_path / "run")], capsys)
+    assert status == 2 and "--calibration: calibration file not found" in last_line(err)
+    assert not (tmp_path / "run").exists()
