@@ -242,10 +242,11 @@ class ApproachPlanner:
         target_w, approach_w = self.positioner.to_world(touch.target_m[None], np.asarray(approach_object)[None], pose)
         target_w, approach_w = target_w[0], approach_w[0]
         depth = cfg.depth_m if touch.depth_m is None else touch.depth_m
-        required = len(approach_line(target_w, approach_w, cfg, depth))
+        probe = depth
         if touch.depth_m is None:
-            depth = max(depth, min(cfg.probe_depth_m, self.prior_exit_m(touch.target_m, approach_object)))
-        points = approach_line(target_w, approach_w, cfg, depth)
+            probe = max(depth, min(cfg.probe_depth_m, self.prior_exit_m(touch.target_m, approach_object)))
+        points = approach_line(target_w, approach_w, cfg, probe)
+        required = int(np.count_nonzero((points - target_w) @ approach_w <= depth + 1e-9))
         standoff = self.ik.solve(points[:1], approach_w[None], seed)
         if not standoff.success[0]:
             return None

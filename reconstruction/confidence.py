@@ -67,6 +67,16 @@ def vertex_std(gpis, vertices: np.ndarray, keep_near_contact_m: float) -> np.nda
     return out
 
 
+def mean_surface(model, box, resolution: int, max_std_m: float | None = None):
+    """The 0-level set of ``model.mean`` over ``box`` ((3,), (3,) metres) as a ``trimesh.Trimesh``,
+    cut to its confident faces (:func:`confident_surface`) when ``max_std_m`` is given. ``model``:
+    a fitted GPIS or PartitionedGPIS (``mean``, ``variance``, ``contact_points``)."""
+    from reconstruction.meshing import mesh_zero_level
+
+    surface = mesh_zero_level(model.mean, box, resolution)
+    return surface if max_std_m is None else confident_surface(model, surface, max_std_m)
+
+
 def confident_surface(gpis, mesh, max_std_m: float = DEFAULT_MAX_STD_M,
                       keep_near_contact_m: float = DEFAULT_KEEP_NEAR_CONTACT_M,
                       hull_margin_m: float | None = DEFAULT_HULL_MARGIN_M):

@@ -349,16 +349,10 @@ class GPIS:
             always kept (:func:`reconstruction.confidence.confident_surface`). The mesh is then
             open where it was cut. None (default) returns the closed 0-level set.
         """
-        from reconstruction.meshing import mesh_zero_level
+        from reconstruction.confidence import mean_surface
 
         self._require_fit()
-        box = self._region if bounds is None else _check_bounds(bounds)
-        surface = mesh_zero_level(self.mean, box, resolution)
-        if max_std_m is None:
-            return surface
-        from reconstruction.confidence import confident_surface
-
-        return confident_surface(self, surface, max_std_m)
+        return mean_surface(self, self._region if bounds is None else _check_bounds(bounds), resolution, max_std_m)
 
     # ------------------------------------------------------------------ internals
     def _joint(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:

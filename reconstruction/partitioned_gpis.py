@@ -293,16 +293,10 @@ class PartitionedGPIS:
     def mesh(self, bounds: Sequence[Sequence[float]] | None = None, resolution: int = 64,
              max_std_m: float | None = None):
         """The blended mean's 0-level set as a ``trimesh.Trimesh`` (see :meth:`GPIS.mesh`)."""
-        from reconstruction.meshing import mesh_zero_level
+        from reconstruction.confidence import mean_surface
 
         self._require_fit()
-        box = self.bounds if bounds is None else _check_bounds(bounds)
-        surface = mesh_zero_level(self.mean, box, resolution)
-        if max_std_m is None:
-            return surface
-        from reconstruction.confidence import confident_surface
-
-        return confident_surface(self, surface, max_std_m)
+        return mean_surface(self, self.bounds if bounds is None else _check_bounds(bounds), resolution, max_std_m)
 
     # ------------------------------------------------------------------ the global GPIS's interface
     @property
