@@ -428,19 +428,36 @@ class SimArm(Robot):
         return contacts
 
     def pad_normal_force_n(self) -> float:
-        """Total normal force on the pad as of the last physics step, newtons: ``pad_state().normal_force_n``
-        without the pose queries (what a simulated barometer needs every step)."""
+        """The pad's load as its barometer feels it, newtons (:meth:`_felt_force_n`): ``pad_state().normal_force_n``
+        without the pose queries in free motion (what a simulated barometer needs every step)."""
         raw = self._pb.getContactPoints(bodyA=self.body, linkIndexA=self._pad, physicsClientId=self._client)
-        return float(sum(c[9] for c in raw if c[9] > 0.0))
+        loaded = [c for c in raw if c[9] > 0.0]
+        if not loaded:
+            return 0.0
+        return self._felt_force_n(np.array([c[7] for c in loaded]), np.array([c[9] for c in loaded]))
+
+    def _felt_force_n(self, normals: np.ndarray, forces_n: np.ndarray) -> float:
+        """What the barometer under the pad feels of contact forces ``forces_n`` ((k,) newtons, > 0)
+        along ``normals`` ((k, 3), world frame): each force's component along the pad's face axis,
+        plus ``spec.pad_side_pressure_gain`` times its component across it (a push on the pad's side)."""
+        quat_xyzw = self._pb.getLinkState(self.body, self._pad, computeForwardKinematics=1,
+                                          physicsClientId=self._client)[5]
+        axis = np.asarray(self._pb.getMatrixFromQuaternion(quat_xyzw)).reshape(3, 3)[:, 2]
+        along = np.clip(np.abs(normals @ axis), 0.0, 1.0)
+        across = np.sqrt(1.0 - along**2)
+        return float(forces_n @ (along + self.spec.pad_side_pressure_gain * across))
 
     def pad_state(self) -> PadState:
         """True state of the sensor body and the pad's contact, as of the last physics step."""
         body = self.link_state(self.spec.sensor_body_link)
         contacts = [c for c in self.pad_contacts() if c.normal_force_n > 0.0]
-        force = float(sum(c.normal_force_n for c in contacts))
+        total = float(sum(c.normal_force_n for c in contacts))
+        force = 0.0
         point = normal = None
-        if force > 0.0:
-            weights = np.array([c.normal_force_n for c in contacts]) / force
+        if total > 0.0:
+            forces = np.array([c.normal_force_n for c in contacts])
+            force = self._felt_force_n(np.array([c.normal_on_b for c in contacts]), forces)
+            weights = forces / total
             point = weights @ np.array([c.position_on_b_m for c in contacts])
             normal = weights @ np.array([c.normal_on_b for c in contacts])
             normal = normal / np.linalg.norm(normal)
