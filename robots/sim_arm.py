@@ -38,6 +38,11 @@ SETTLE_TIMEOUT_S = 1.0
 #: How far a joint's mechanical stop lies beyond the true angle at its software limit, radians.
 MECHANICAL_STOP_MARGIN_RAD = float(np.radians(1.0))
 STABILITY_MARGIN = 2.0
+#: A free move (:meth:`SimArm.move_joints`) stops once one arm link presses this hard on another
+#: body, newtons: a real arm's collision detection (a protective stop). Assumption: well above
+#: the fingertip's presses (at most ~10 N) and far below the kilonewtons a position-controlled
+#: simulated arm reaches when it drives its hand into the object and wedges (issue 12).
+PROTECTIVE_STOP_N = 50.0
 
 
 @dataclass(frozen=True)
@@ -357,11 +362,18 @@ class SimArm(Robot):
         Raises
         ------
         MoveNotReachedError
-            When the arm has not reached ``q`` within ``SETTLE_TIMEOUT_S`` after the motion.
+            When the arm has not reached ``q`` within ``SETTLE_TIMEOUT_S`` after the motion, or
+            when a link pressed more than ``PROTECTIVE_STOP_N`` on another body on the way (it
+            then holds where it stopped).
         """
         target = self._checked_q(q, "q")
-        self._follow(target[None], stop=None, speed_rad_s=speed_rad_s)
+        collision = []
+        result = self._follow(target[None], stop=lambda: self._collided(collision), speed_rad_s=speed_rad_s)
         error = np.max(np.abs(self.servo_positions() - target))
+        if result.stopped:
+            link, other, force = collision[0]
+            raise MoveNotReachedError(f"protective stop: {link} pressed {force:.0f} N on {other}, "
+                                      f"{np.degrees(error):.2f} deg from the target")
         if error > REACHED_TOLERANCE_RAD:
             raise MoveNotReachedError(
                 f"arm stopped {np.degrees(error):.2f} deg away from its target (blocked by a contact?)"
@@ -426,6 +438,21 @@ class SimArm(Robot):
                 normal_force_n=c.normal_force_n,
             ))
         return contacts
+
+    def _collided(self, found: list) -> bool:
+        """Whether one link presses more than ``PROTECTIVE_STOP_N`` on another body; appends
+        (link, other body, newtons) to ``found`` when it does."""
+        raw = self._pb.getContactPoints(bodyA=self.body, physicsClientId=self._client)
+        per_link: dict[tuple[int, int], float] = {}
+        for c in raw:
+            if c[2] != self.body and c[9] > 0.0:
+                key = (c[3], c[2])
+                per_link[key] = per_link.get(key, 0.0) + c[9]
+        for (link, other), force in per_link.items():
+            if force > PROTECTIVE_STOP_N:
+                found.append((self._link_name.get(link, "base"), self.world.body_name(other), force))
+                return True
+        return False
 
     def pad_normal_force_n(self) -> float:
         """The pad's load as its barometer feels it, newtons (:meth:`_felt_force_n`): ``pad_state().normal_force_n``

@@ -12,7 +12,7 @@ from robots.ik import solve_pad_ik
 from robots.interface import GuardedMoveResult, Robot
 from robots.kinematics import ArmKinematics
 from common.rotations import angle_between_vectors, matrix_to_quat, quat_to_matrix
-from robots.sim_arm import EncoderModel, MoveNotReachedError, SimArm
+from robots.sim_arm import PROTECTIVE_STOP_N, EncoderModel, MoveNotReachedError, SimArm
 from robots.sim_world import ObjectHandle, SimWorld
 from robots.urdf_model import Box, Link, RobotModel, Shape, to_urdf
 from common.pad_state import PadState
@@ -243,11 +243,15 @@ def test_move_rejects_bad_targets_and_reports_blocked_moves(world, spec, box_urd
         arm.guarded_move(np.zeros((3, 6)), lambda: False)
     with pytest.raises(ValueError, match="speed_rad_s must be positive"):
         arm.move_joints(spec.home_q, speed_rad_s=0.0)
-    # a box right in front of the pad blocks a move through it
+    # a box right in front of the pad blocks a move through it: a protective stop, and the arm
+    # holds there instead of pressing on towards a target 25 mm inside the box
     home = kinematics.forward_kinematics(spec.home_q)
     _place_tilted_box(world, box_urdf, home, 0.0, gap_m=0.005)
-    with pytest.raises(MoveNotReachedError, match="away from its target"):
+    with pytest.raises(MoveNotReachedError, match=r"protective stop: pad pressed \d+ N on tilted box"):
         arm.move_joints(_approach_path(kinematics, home, 0.03)[-1], speed_rad_s=0.2)
+    world.step(480)  # 2 s
+    pressing = sum(c.normal_force_n for c in arm.contacts() if c.other == "tilted box")
+    assert pressing < 2 * PROTECTIVE_STOP_N
 
 
 def test_reset_teleports_and_holds(world, spec):
