@@ -27,7 +27,9 @@ class PadState:
     ang_vel_radps : (3,) float
         Sensor body angular velocity, world frame, rad/s.
     normal_force_n : float
-        Total normal force on the pad from contacts, newtons (0 when free).
+        The pad's contact load as its barometer feels it, newtons (0 when free): each contact
+        force's component along the face axis plus a small fraction of its component across it
+        (``RobotSpec.pad_side_pressure_gain``).
     contact_point_m : (3,) float or None
         Force-weighted mean contact point on the object, world frame, metres; None when free.
     contact_normal : (3,) float or None

@@ -417,13 +417,18 @@ class ExplorationLoop:
             raise
 
     def _to_rest(self) -> None:
-        """To the rest pose; when blocked (``rest_blocked`` event), once more at recovery speed
-        (a real arm's recovery after a protective stop). Still blocked: the MoveNotReachedError
-        ends the run, with what was recorded kept."""
+        """To the rest pose; when blocked (``rest_blocked`` event), the pad first backs straight
+        out along its face axis (:meth:`ApproachPlanner.retreat_path`: the straight joint path to
+        rest from near the object can sweep the hand through it), then once more to rest, both at
+        recovery speed (a real arm's recovery after a protective stop). Still blocked: the
+        MoveNotReachedError ends the run, with what was recorded kept."""
         try:
             self._free_move(self.planner.rest_q)
         except MoveNotReachedError as err:
             self.recorder.event("rest_blocked", self.robot.time_s(), message=str(err))
+            retreat = self.planner.retreat_path(self.robot.joint_positions())
+            if len(retreat):
+                self.robot.guarded_move(retreat, stop=lambda: False, speed_rad_s=RECOVERY_SPEED_RAD_S)
             self.robot.move_joints(self.planner.rest_q, RECOVERY_SPEED_RAD_S)
 
     def _swept(self, plan: ApproachPlan, q_end: np.ndarray) -> np.ndarray:

@@ -262,6 +262,21 @@ class ApproachPlanner:
             return None
         return ApproachPlan(touch, pose, target_w, approach_w, q, points, tilt_rad)
 
+    def retreat_path(self, q: np.ndarray, distance_m: float = 0.15, step_m: float = 0.01) -> np.ndarray:
+        """(k, dof) joint path that takes the pad from ``q`` straight back along its face axis (the
+        way an approach came in), as far as IK follows it up to ``distance_m``; k = 0 when no step
+        can be followed. For a recovery: a joint-space move to rest from close to the object can
+        sweep the hand through it."""
+        pose = self.kin.forward_kinematics(np.asarray(q, float))
+        steps = np.arange(1, int(round(distance_m / step_m)) + 1) * step_m
+        points = pose.position_m - steps[:, None] * pose.z_axis
+        result = self.ik.solve(points, np.tile(pose.z_axis, (len(points), 1)), np.asarray(q, float))
+        path = np.vstack([np.asarray(q, float)[None], result.q_rad])
+        jumps = np.max(np.abs(np.diff(path, axis=0)), axis=1) > self.config.max_joint_step_rad
+        followed = result.success & ~jumps
+        usable = len(points) if followed.all() else int(np.argmin(followed))
+        return result.q_rad[:usable]
+
     def prior_exit_m(self, target_m: np.ndarray, approach_dir: np.ndarray) -> float:
         """Distance (metres) from ``target_m`` along ``approach_dir`` (object frame) to where the line
         leaves the prior box; 0 when it has left it already (or never meets it)."""

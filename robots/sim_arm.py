@@ -38,6 +38,11 @@ SETTLE_TIMEOUT_S = 1.0
 #: How far a joint's mechanical stop lies beyond the true angle at its software limit, radians.
 MECHANICAL_STOP_MARGIN_RAD = float(np.radians(1.0))
 STABILITY_MARGIN = 2.0
+#: A free move (:meth:`SimArm.move_joints`) stops once one arm link presses this hard on another
+#: body, newtons: a real arm's collision detection (a protective stop). Assumption: well above
+#: the fingertip's presses (at most ~10 N) and far below the kilonewtons a position-controlled
+#: simulated arm reaches when it drives its hand into the object and wedges (issue 12).
+PROTECTIVE_STOP_N = 50.0
 
 
 @dataclass(frozen=True)
@@ -357,11 +362,18 @@ class SimArm(Robot):
         Raises
         ------
         MoveNotReachedError
-            When the arm has not reached ``q`` within ``SETTLE_TIMEOUT_S`` after the motion.
+            When the arm has not reached ``q`` within ``SETTLE_TIMEOUT_S`` after the motion, or
+            when a link pressed more than ``PROTECTIVE_STOP_N`` on another body on the way (it
+            then holds where it stopped).
         """
         target = self._checked_q(q, "q")
-        self._follow(target[None], stop=None, speed_rad_s=speed_rad_s)
+        collision = []
+        result = self._follow(target[None], stop=lambda: self._collided(collision), speed_rad_s=speed_rad_s)
         error = np.max(np.abs(self.servo_positions() - target))
+        if result.stopped:
+            link, other, force = collision[0]
+            raise MoveNotReachedError(f"protective stop: {link} pressed {force:.0f} N on {other}, "
+                                      f"{np.degrees(error):.2f} deg from the target")
         if error > REACHED_TOLERANCE_RAD:
             raise MoveNotReachedError(
                 f"arm stopped {np.degrees(error):.2f} deg away from its target (blocked by a contact?)"
@@ -427,20 +439,52 @@ class SimArm(Robot):
             ))
         return contacts
 
+    def _collided(self, found: list) -> bool:
+        """Whether one link presses more than ``PROTECTIVE_STOP_N`` on another body; appends
+        (link, other body, newtons) to ``found`` when it does."""
+        raw = self._pb.getContactPoints(bodyA=self.body, physicsClientId=self._client)
+        per_link: dict[tuple[int, int], float] = {}
+        for c in raw:
+            if c[2] != self.body and c[9] > 0.0:
+                key = (c[3], c[2])
+                per_link[key] = per_link.get(key, 0.0) + c[9]
+        for (link, other), force in per_link.items():
+            if force > PROTECTIVE_STOP_N:
+                found.append((self._link_name.get(link, "base"), self.world.body_name(other), force))
+                return True
+        return False
+
     def pad_normal_force_n(self) -> float:
-        """Total normal force on the pad as of the last physics step, newtons: ``pad_state().normal_force_n``
-        without the pose queries (what a simulated barometer needs every step)."""
+        """The pad's load as its barometer feels it, newtons (:meth:`_felt_force_n`): ``pad_state().normal_force_n``
+        without the pose queries in free motion (what a simulated barometer needs every step)."""
         raw = self._pb.getContactPoints(bodyA=self.body, linkIndexA=self._pad, physicsClientId=self._client)
-        return float(sum(c[9] for c in raw if c[9] > 0.0))
+        loaded = [c for c in raw if c[9] > 0.0]
+        if not loaded:
+            return 0.0
+        return self._felt_force_n(np.array([c[7] for c in loaded]), np.array([c[9] for c in loaded]))
+
+    def _felt_force_n(self, normals: np.ndarray, forces_n: np.ndarray) -> float:
+        """What the barometer under the pad feels of contact forces ``forces_n`` ((k,) newtons, > 0)
+        along ``normals`` ((k, 3), world frame): each force's component along the pad's face axis,
+        plus ``spec.pad_side_pressure_gain`` times its component across it (a push on the pad's side)."""
+        quat_xyzw = self._pb.getLinkState(self.body, self._pad, computeForwardKinematics=1,
+                                          physicsClientId=self._client)[5]
+        axis = np.asarray(self._pb.getMatrixFromQuaternion(quat_xyzw)).reshape(3, 3)[:, 2]
+        along = np.clip(np.abs(normals @ axis), 0.0, 1.0)
+        across = np.sqrt(1.0 - along**2)
+        return float(forces_n @ (along + self.spec.pad_side_pressure_gain * across))
 
     def pad_state(self) -> PadState:
         """True state of the sensor body and the pad's contact, as of the last physics step."""
         body = self.link_state(self.spec.sensor_body_link)
         contacts = [c for c in self.pad_contacts() if c.normal_force_n > 0.0]
-        force = float(sum(c.normal_force_n for c in contacts))
+        total = float(sum(c.normal_force_n for c in contacts))
+        force = 0.0
         point = normal = None
-        if force > 0.0:
-            weights = np.array([c.normal_force_n for c in contacts]) / force
+        if total > 0.0:
+            forces = np.array([c.normal_force_n for c in contacts])
+            force = self._felt_force_n(np.array([c.normal_on_b for c in contacts]), forces)
+            weights = forces / total
             point = weights @ np.array([c.position_on_b_m for c in contacts])
             normal = weights @ np.array([c.normal_on_b for c in contacts])
             normal = normal / np.linalg.norm(normal)

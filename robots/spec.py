@@ -22,6 +22,9 @@ from common.rotations import as_unit_quat_wxyz
 DEFAULT_PAD_LATERAL_FRICTION = 0.4
 DEFAULT_PAD_CONTACT_STIFFNESS_N_PER_M = 2.0e4
 DEFAULT_PAD_CONTACT_DAMPING_NS_PER_M = 40.0
+# Assumption (no measurement found): a load on the pad's side wall shears the polyurethane and
+# raises the pressure over the barometer by about a tenth of what the same load on the face does.
+DEFAULT_PAD_SIDE_PRESSURE_GAIN = 0.1
 
 
 def _floats(values, name: str, length: int | None = None) -> tuple[float, ...]:
@@ -61,6 +64,10 @@ class RobotSpec:
         Coulomb friction coefficient of the pad.
     pad_contact_stiffness_n_per_m, pad_contact_damping_ns_per_m : float
         Contact softness of the polyurethane pad, per contact point (PyBullet's contact model).
+    pad_side_pressure_gain : float
+        What the barometer feels of a contact force's component across the pad's face axis, as a
+        fraction of the component along it, in [0, 1]: the pad's side feels a push that little
+        (an assumption, ``DEFAULT_PAD_SIDE_PRESSURE_GAIN``).
     workspace_center_m : (3,) float
         A point in front of the robot where table-top objects are reachable, world frame, metres.
     """
@@ -81,6 +88,7 @@ class RobotSpec:
     pad_lateral_friction: float = DEFAULT_PAD_LATERAL_FRICTION
     pad_contact_stiffness_n_per_m: float = DEFAULT_PAD_CONTACT_STIFFNESS_N_PER_M
     pad_contact_damping_ns_per_m: float = DEFAULT_PAD_CONTACT_DAMPING_NS_PER_M
+    pad_side_pressure_gain: float = DEFAULT_PAD_SIDE_PRESSURE_GAIN
     workspace_center_m: tuple[float, float, float] = (0.5, 0.0, 0.8)
 
     def __post_init__(self) -> None:
@@ -113,6 +121,10 @@ class RobotSpec:
             if not value >= 0.0 or not math.isfinite(value):
                 raise ValueError(f"robot {self.name!r}: {field_name} must be >= 0, got {value}")
             set_(self, field_name, value)
+        gain = float(self.pad_side_pressure_gain)
+        if not 0.0 <= gain <= 1.0:
+            raise ValueError(f"robot {self.name!r}: pad_side_pressure_gain must be in [0, 1], got {gain}")
+        set_(self, "pad_side_pressure_gain", gain)
 
     @property
     def dof(self) -> int:

@@ -137,6 +137,8 @@ class FakeKinematics:
 
     spec = SimpleNamespace(pivot_link="pivot", tool_link="pad")
     pivot_to_pad_in_body = np.zeros(3)
+    lower_rad = np.full(3, -np.inf)  # the pad position has no joint limits
+    upper_rad = np.full(3, np.inf)
 
     def forward_kinematics(self, q, link=None):
         return SimpleNamespace(position_m=np.asarray(q, float).copy(), rotation=np.eye(3),
@@ -154,6 +156,13 @@ class FakePlanner:
         self.config = config
         self.unreachable = unreachable
         self.rest_q = positioner.centre_m + np.array([0.0, -0.2, 0.1])
+
+    def retreat_path(self, q, distance_m: float = 0.15, step_m: float = 0.01) -> np.ndarray:
+        """The pad straight away from the stand centre (where the fake pad faces), ``step_m`` apart."""
+        q = np.asarray(q, float)
+        away = (q - self.positioner.centre_m) / np.linalg.norm(q - self.positioner.centre_m)
+        steps = np.arange(1, int(round(distance_m / step_m)) + 1) * step_m
+        return q + steps[:, None] * away
 
     def plan(self, touch: Touch, seed_q=None) -> ApproachPlan | None:
         if self.unreachable(touch.target_m):

@@ -7,6 +7,8 @@ now backs out first (:func:`explorer.loop.back_out`).
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -84,3 +86,46 @@ def test_a_transfer_blocked_on_the_table_ends_at_rest_or_its_target_not_wedged()
         assert reached or events.kinds.count("transfer_blocked") == 2
         table = [c for c in scene.arm.contacts() if c.other == "table" and c.normal_force_n > 1.0]
         assert not table, f"still pressed on the table: {table}"
+
+
+def test_a_blocked_move_to_rest_backs_the_pad_out_along_its_axis_before_trying_again():
+    from fakes import FakePlanner, FakeRobot, ScriptedStrategy, sphere_rig
+    from reconstruction.gpis import GPIS
+    from robots.interface import MoveNotReachedError
+
+    class BlockedOnceOnTheWayToRest(FakeRobot):
+        """The first move to rest meets the object (a protective stop); later ones go through."""
+
+        def __init__(self, world, rest):
+            super().__init__(world)
+            self.rest, self.calls = rest, []
+
+        def move_joints(self, q, speed_rad_s=1.0):
+            self.calls.append(("move", self.joint_positions(), speed_rad_s))
+            if np.allclose(q, self.rest) and sum(c[0] == "move" for c in self.calls) == 1:
+                raise MoveNotReachedError("protective stop: wrist pressed 80 N on the object")
+            super().move_joints(q, speed_rad_s)
+
+        def guarded_move(self, path, stop, speed_rad_s=0.2):
+            self.calls.append(("guarded", np.asarray(path, float), speed_rad_s))
+            return super().guarded_move(path, stop, speed_rad_s)
+
+    world, rig = sphere_rig()
+    planner = FakePlanner(rig.positioner)
+    robot = BlockedOnceOnTheWayToRest(world, planner.rest_q)
+    rig = dataclasses.replace(rig, robot=robot)
+    events = _Events()
+    loop = ExplorationLoop(rig, planner, ScriptedStrategy([]), GPIS(bounds=rig.prior.bounds()), LoopConfig(), events)
+    near = world.centre_m + np.array([world.radius_m + 0.005, 0.0, 0.0])  # 5 mm off the sphere
+    world.pad_m = near.copy()
+    loop._to_rest()
+    assert events.kinds == ["rest_blocked"]
+    np.testing.assert_allclose(robot.joint_positions(), planner.rest_q)
+    retreats = [c for c in robot.calls if c[0] == "guarded" and len(c[1]) > 1]
+    assert len(retreats) == 1, "one straight retreat"
+    path, speed = retreats[0][1], retreats[0][2]
+    np.testing.assert_allclose(path, planner.retreat_path(near))
+    assert speed == RECOVERY_SPEED_RAD_S
+    kinds = [c[0] for c in robot.calls]
+    assert kinds.index("guarded") < len(kinds) - 1 and kinds[-1] == "move"  # retreat, then rest
+    assert robot.calls[-1][2] == RECOVERY_SPEED_RAD_S

@@ -112,3 +112,27 @@ def test_the_probe_depth_is_set_from_the_configuration_the_sweep_and_the_command
     assert plan_runs(sweep)[0].settings(sweep).planner.probe_depth_m == 0.04
     with pytest.raises(ValueError, match="probe_depth_m"):
         SweepConfig(objects=("sphere",), strategies=("variance",), seeds=(0,), probe_depth_m=-0.01)
+
+
+def test_the_retreat_path_backs_the_pad_straight_out_along_its_face_axis(planner, kinematics):
+    plan = planner.plan(Touch(np.array([-HALF_M, 0.0, 0.0]), np.array([1.0, 0.0, 0.0])))
+    q = plan.path_q[-1]
+    start = kinematics.forward_kinematics(q)
+    path = planner.retreat_path(q, distance_m=0.1)
+    assert len(path) >= 5
+    poses = [kinematics.forward_kinematics(p) for p in path]
+    back = np.array([(start.position_m - p.position_m) @ start.z_axis for p in poses])
+    off_line = np.array([np.linalg.norm(np.cross(p.position_m - start.position_m, start.z_axis)) for p in poses])
+    assert np.all(np.diff(back) > 0.009) and back[-1] <= 0.1 + 1e-4  # 1 cm steps, away from the face
+    assert off_line.max() < 1e-3
+    assert min(float(p.z_axis @ start.z_axis) for p in poses) > np.cos(np.radians(2.0))
+
+
+def test_the_retreat_path_stops_where_ik_fails(planner, kinematics):
+    plan = planner.plan(Touch(np.array([-HALF_M, 0.0, 0.0]), np.array([1.0, 0.0, 0.0])))
+    q = plan.path_q[-1]
+    start = kinematics.forward_kinematics(q)
+    # the IK fails 35 mm behind the pad: the path ends before it
+    cut = copy.copy(planner)
+    cut.ik = CutIK(planner.ik, start.position_m, -start.z_axis, 0.035)
+    assert len(cut.retreat_path(q, distance_m=0.1)) == 3

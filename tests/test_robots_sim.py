@@ -12,7 +12,7 @@ from robots.ik import solve_pad_ik
 from robots.interface import GuardedMoveResult, Robot
 from robots.kinematics import ArmKinematics
 from common.rotations import angle_between_vectors, matrix_to_quat, quat_to_matrix
-from robots.sim_arm import EncoderModel, MoveNotReachedError, SimArm
+from robots.sim_arm import PROTECTIVE_STOP_N, EncoderModel, MoveNotReachedError, SimArm
 from robots.sim_world import ObjectHandle, SimWorld
 from robots.urdf_model import Box, Link, RobotModel, Shape, to_urdf
 from common.pad_state import PadState
@@ -243,11 +243,15 @@ def test_move_rejects_bad_targets_and_reports_blocked_moves(world, spec, box_urd
         arm.guarded_move(np.zeros((3, 6)), lambda: False)
     with pytest.raises(ValueError, match="speed_rad_s must be positive"):
         arm.move_joints(spec.home_q, speed_rad_s=0.0)
-    # a box right in front of the pad blocks a move through it
+    # a box right in front of the pad blocks a move through it: a protective stop, and the arm
+    # holds there instead of pressing on towards a target 25 mm inside the box
     home = kinematics.forward_kinematics(spec.home_q)
     _place_tilted_box(world, box_urdf, home, 0.0, gap_m=0.005)
-    with pytest.raises(MoveNotReachedError, match="away from its target"):
+    with pytest.raises(MoveNotReachedError, match=r"protective stop: pad pressed \d+ N on tilted box"):
         arm.move_joints(_approach_path(kinematics, home, 0.03)[-1], speed_rad_s=0.2)
+    world.step(480)  # 2 s
+    pressing = sum(c.normal_force_n for c in arm.contacts() if c.other == "tilted box")
+    assert pressing < 2 * PROTECTIVE_STOP_N
 
 
 def test_reset_teleports_and_holds(world, spec):
@@ -296,3 +300,47 @@ def test_pad_state_velocity_matches_position_differences(world, spec):
     assert np.abs(turned - angular).max() < 0.01 * np.abs(angular).max() + 1e-3
     times = np.array([s.t_s for s in states])
     assert np.allclose(np.diff(times), world.time_step_s)
+
+
+def _wall_beside_the_pad(world, box_urdf, home, gap_m=0.004):
+    """A box wall parallel to the pad's face axis, ``gap_m`` beside the pad's +x side wall."""
+    side = home.rotation[:, 0]
+    frame = np.stack([home.rotation[:, 2], home.rotation[:, 1], side], axis=1)  # box z (0.1 m) across
+    centre = home.position_m + (0.009 + gap_m + BOX_SIZE[2] / 2) * side - 0.02 * home.z_axis
+    world.add_object(box_urdf, centre, matrix_to_quat(frame), name="wall")
+    return side
+
+
+@pytest.mark.parametrize("gain", [0.0, 0.1])
+def test_the_barometer_feels_little_of_a_push_on_the_pads_side(world, spec, kinematics, box_urdf, gain):
+    """A face-on press is felt whole; a sideways push on the pad's side wall only by
+    ``pad_side_pressure_gain``, against the raw contact forces PyBullet reports."""
+    import dataclasses
+    arm = SimArm(world, dataclasses.replace(spec, pad_side_pressure_gain=gain))
+    home = kinematics.forward_kinematics(spec.home_q)
+    side = _wall_beside_the_pad(world, box_urdf, home)
+    n = 9
+    points = home.position_m + np.linspace(0.0, 0.008, n)[:, None] * side  # 4 mm into the wall
+    path = solve_pad_ik(kinematics, points, np.tile(home.z_axis, (n, 1)), q_seed=spec.home_q)
+    assert path.success.all()
+    arm.guarded_move(path.q_rad, stop=lambda: False, speed_rad_s=0.05)
+    world.step(60)
+    raw = [c for c in arm.pad_contacts() if c.normal_force_n > 0.0]
+    total = sum(c.normal_force_n for c in raw)
+    assert total > 0.5, "the pad's side must be loaded"
+    felt = arm.pad_state().normal_force_n
+    assert felt == arm.pad_normal_force_n()
+    assert felt <= gain * total + 0.05 * total  # normals within ~3 deg of the wall's
+    assert felt >= gain * total * 0.95
+
+
+def test_a_face_on_press_is_felt_whole(world, spec, kinematics, box_urdf):
+    arm = SimArm(world, spec)
+    home = kinematics.forward_kinematics(spec.home_q)
+    _place_tilted_box(world, box_urdf, home, 0.0)
+    arm.guarded_move(_approach_path(kinematics, home, 0.04), lambda: arm.pad_state().normal_force_n > 2.0,
+                     speed_rad_s=0.05)
+    world.step(60)
+    total = sum(c.normal_force_n for c in arm.pad_contacts() if c.normal_force_n > 0.0)
+    assert total > 1.0
+    assert arm.pad_state().normal_force_n == pytest.approx(total, rel=0.01)
