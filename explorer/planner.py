@@ -266,12 +266,14 @@ class ApproachPlanner:
         """(k, dof) joint path that takes the pad from ``q`` straight back along its face axis (the
         way an approach came in), as far as IK follows it up to ``distance_m``; k = 0 when no step
         can be followed. For a recovery: a joint-space move to rest from close to the object can
-        sweep the hand through it."""
-        pose = self.kin.forward_kinematics(np.asarray(q, float))
+        sweep the hand through it. ``q`` may lie past the joint limits (a contact pushed the
+        joints there); the path starts from ``q`` clipped into them."""
+        q = np.clip(np.asarray(q, float), self.kin.lower_rad, self.kin.upper_rad)
+        pose = self.kin.forward_kinematics(q)
         steps = np.arange(1, int(round(distance_m / step_m)) + 1) * step_m
         points = pose.position_m - steps[:, None] * pose.z_axis
-        result = self.ik.solve(points, np.tile(pose.z_axis, (len(points), 1)), np.asarray(q, float))
-        path = np.vstack([np.asarray(q, float)[None], result.q_rad])
+        result = self.ik.solve(points, np.tile(pose.z_axis, (len(points), 1)), q)
+        path = np.vstack([q[None], result.q_rad])
         jumps = np.max(np.abs(np.diff(path, axis=0)), axis=1) > self.config.max_joint_step_rad
         followed = result.success & ~jumps
         usable = len(points) if followed.all() else int(np.argmin(followed))

@@ -136,3 +136,12 @@ def test_the_retreat_path_stops_where_ik_fails(planner, kinematics):
     cut = copy.copy(planner)
     cut.ik = CutIK(planner.ik, start.position_m, -start.z_axis, 0.035)
     assert len(cut.retreat_path(q, distance_m=0.1)) == 3
+
+
+def test_the_retreat_path_starts_from_joints_a_contact_pushed_past_their_limits(planner, kinematics):
+    plan = planner.plan(Touch(np.array([-HALF_M, 0.0, 0.0]), np.array([1.0, 0.0, 0.0])))
+    q = plan.path_q[-1].copy()
+    q[-1] = kinematics.upper_rad[-1] + np.radians(1.0)  # on the mechanical stop, past the software limit
+    path = planner.retreat_path(q, distance_m=0.05)
+    assert len(path) >= 1
+    assert np.all(path >= kinematics.lower_rad - 1e-9) and np.all(path <= kinematics.upper_rad + 1e-9)
