@@ -420,16 +420,26 @@ class ExplorationLoop:
         """To the rest pose; when blocked (``rest_blocked`` event), the pad first backs straight
         out along its face axis (:meth:`ApproachPlanner.retreat_path`: the straight joint path to
         rest from near the object can sweep the hand through it), then once more to rest, both at
-        recovery speed (a real arm's recovery after a protective stop). Still blocked: the
-        MoveNotReachedError ends the run, with what was recorded kept."""
+        recovery speed (a real arm's recovery after a protective stop). Blocked again
+        (``rest_forced`` event): a last slow guarded move to rest, whose only guard is the robot's
+        own (the simulated arm's is none: it pushes past the object as every move did before the
+        protective stop). Still not at rest: the MoveNotReachedError ends the run, with what was
+        recorded kept."""
+        rest = self.planner.rest_q
         try:
-            self._free_move(self.planner.rest_q)
+            self._free_move(rest)
         except MoveNotReachedError as err:
             self.recorder.event("rest_blocked", self.robot.time_s(), message=str(err))
             retreat = self.planner.retreat_path(self.robot.joint_positions())
             if len(retreat):
                 self.robot.guarded_move(retreat, stop=lambda: False, speed_rad_s=RECOVERY_SPEED_RAD_S)
-            self.robot.move_joints(self.planner.rest_q, RECOVERY_SPEED_RAD_S)
+            try:
+                self.robot.move_joints(rest, RECOVERY_SPEED_RAD_S)
+            except MoveNotReachedError as again:
+                self.recorder.event("rest_forced", self.robot.time_s(), message=str(again))
+                self.robot.guarded_move(np.asarray(rest, float)[None], stop=lambda: False,
+                                        speed_rad_s=RECOVERY_SPEED_RAD_S)
+                self.robot.move_joints(rest, RECOVERY_SPEED_RAD_S)
 
     def _swept(self, plan: ApproachPlan, q_end: np.ndarray) -> np.ndarray:
         """(k, 3) world points of the approach line the pad passed on a miss.

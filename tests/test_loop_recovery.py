@@ -129,3 +129,38 @@ def test_a_blocked_move_to_rest_backs_the_pad_out_along_its_axis_before_trying_a
     kinds = [c[0] for c in robot.calls]
     assert kinds.index("guarded") < len(kinds) - 1 and kinds[-1] == "move"  # retreat, then rest
     assert robot.calls[-1][2] == RECOVERY_SPEED_RAD_S
+
+
+def test_a_move_to_rest_blocked_twice_ends_with_a_slow_guarded_move_there():
+    from fakes import FakePlanner, FakeRobot, sphere_rig, ScriptedStrategy
+    from reconstruction.gpis import GPIS
+    from robots.interface import MoveNotReachedError
+
+    class BlockedTwice(FakeRobot):
+        """Every move_joints to rest from away from it stops (a protective stop); guarded moves go."""
+
+        def __init__(self, world, rest):
+            super().__init__(world)
+            self.rest, self.calls = rest, []
+
+        def move_joints(self, q, speed_rad_s=1.0):
+            self.calls.append("move")
+            if np.allclose(q, self.rest) and not np.allclose(self.joint_positions(), self.rest):
+                raise MoveNotReachedError("protective stop: wrist pressed 300 N on the object")
+            super().move_joints(q, speed_rad_s)
+
+        def guarded_move(self, path, stop, speed_rad_s=0.2):
+            self.calls.append("guarded")
+            return super().guarded_move(path, stop, speed_rad_s)
+
+    world, rig = sphere_rig()
+    planner = FakePlanner(rig.positioner)
+    robot = BlockedTwice(world, planner.rest_q)
+    events = _Events()
+    loop = ExplorationLoop(dataclasses.replace(rig, robot=robot), planner, ScriptedStrategy([]),
+                           GPIS(bounds=rig.prior.bounds()), LoopConfig(), events)
+    world.pad_m = world.centre_m + np.array([world.radius_m + 0.005, 0.0, 0.0])
+    loop._to_rest()
+    assert events.kinds == ["rest_blocked", "rest_forced"]
+    np.testing.assert_allclose(robot.joint_positions(), planner.rest_q)
+    assert robot.calls[-2:] == ["guarded", "move"]  # the forced move, then the check that it is there
