@@ -390,15 +390,26 @@ class ExplorationLoop:
         return record
 
     def _transfer(self, q: np.ndarray) -> bool:
-        """Free move to ``q``, via the rest pose when the straight joint path is blocked.
+        """Free move to the standoff ``q``: straight in joint space; when that is blocked, to a
+        point on the approach line behind the standoff and straight in along it (the way the pad
+        will go on; :meth:`ApproachPlanner.retreat_path` from ``q``, reversed); then the same from
+        the rest pose. A straight joint path from rest or from the last touch can sweep the hand
+        through the object, and the arm's protective stop ends it.
 
         Returns False (arm back at rest) when ``q`` itself cannot be reached: the arm would
         touch the object there (the planner checks only the arm up to the wrist).
         """
-        for attempt in ("direct", "via rest"):
+        line = self.planner.retreat_path(q)[::-1]  # far end first, the standoff's neighbour last
+        for attempt in ("direct", "along the approach line", "via rest"):
+            if attempt == "along the approach line" and not len(line):
+                continue
             try:
                 if attempt == "via rest":
                     self._free_move(self.planner.rest_q)
+                if attempt != "direct" and len(line):
+                    self._free_move(line[0])
+                    self.robot.guarded_move(np.vstack([line[1:], q[None]]), stop=lambda: False,
+                                            speed_rad_s=self.config.transfer_speed_rad_s)
                 self._free_move(q)
                 return True
             except MoveNotReachedError as err:

@@ -73,6 +73,7 @@ def test_a_transfer_blocked_on_the_table_ends_at_rest_or_its_target_not_wedged()
                   object_prior(scene.object_model.mesh), None, {}, scene.pad)
         planner = FakePlanner(scene.stand)
         planner.rest_q = rest
+        planner.retreat_path = lambda q, **kwargs: np.empty((0, len(q)))  # direct and via rest only
         events = _Events()
         loop = ExplorationLoop(rig, planner, ScriptedStrategy([]), GPIS(bounds=rig.prior.bounds()),
                                LoopConfig(), events)
