@@ -399,8 +399,10 @@ class ExplorationLoop:
         Returns False (arm back at rest) when ``q`` itself cannot be reached: the arm would
         touch the object there (the planner checks only the arm up to the wrist).
         """
-        line = self.planner.retreat_path(q)[::-1]  # far end first, the standoff's neighbour last
+        line = None  # far end first, the standoff's neighbour last; IK only once direct failed
         for attempt in ("direct", "along the approach line", "via rest"):
+            if attempt != "direct" and line is None:
+                line = self.planner.retreat_path(q)[::-1]
             if attempt == "along the approach line" and not len(line):
                 continue
             try:
