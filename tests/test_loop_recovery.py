@@ -89,21 +89,21 @@ def test_a_transfer_blocked_on_the_table_ends_at_rest_or_its_target_not_wedged()
         assert not table, f"still pressed on the table: {table}"
 
 
-def test_a_blocked_move_to_rest_backs_the_pad_out_along_its_axis_before_trying_again():
-    from fakes import FakePlanner, FakeRobot, ScriptedStrategy, sphere_rig
-    from reconstruction.gpis import GPIS
+def _blocked_on_the_way_to_rest(blocked_moves: int):
+    """A fake rig whose first ``blocked_moves`` moves to rest meet the object (protective stops);
+    (world, rig with that robot, planner). The robot records each move's kind, start or path, speed."""
+    from fakes import FakePlanner, FakeRobot, sphere_rig
     from robots.interface import MoveNotReachedError
 
-    class BlockedOnceOnTheWayToRest(FakeRobot):
-        """The first move to rest meets the object (a protective stop); later ones go through."""
-
+    class BlockedOnTheWayToRest(FakeRobot):
         def __init__(self, world, rest):
             super().__init__(world)
-            self.rest, self.calls = rest, []
+            self.rest, self.calls, self.blocked = rest, [], 0
 
         def move_joints(self, q, speed_rad_s=1.0):
             self.calls.append(("move", self.joint_positions(), speed_rad_s))
-            if np.allclose(q, self.rest) and sum(c[0] == "move" for c in self.calls) == 1:
+            if np.allclose(q, self.rest) and self.blocked < blocked_moves:
+                self.blocked += 1
                 raise MoveNotReachedError("protective stop: wrist pressed 80 N on the object")
             super().move_joints(q, speed_rad_s)
 
@@ -113,8 +113,16 @@ def test_a_blocked_move_to_rest_backs_the_pad_out_along_its_axis_before_trying_a
 
     world, rig = sphere_rig()
     planner = FakePlanner(rig.positioner)
-    robot = BlockedOnceOnTheWayToRest(world, planner.rest_q)
-    rig = dataclasses.replace(rig, robot=robot)
+    robot = BlockedOnTheWayToRest(world, planner.rest_q)
+    return world, dataclasses.replace(rig, robot=robot), planner
+
+
+def test_a_blocked_move_to_rest_backs_the_pad_out_along_its_axis_before_trying_again():
+    from fakes import ScriptedStrategy
+    from reconstruction.gpis import GPIS
+
+    world, rig, planner = _blocked_on_the_way_to_rest(1)
+    robot = rig.robot
     events = _Events()
     loop = ExplorationLoop(rig, planner, ScriptedStrategy([]), GPIS(bounds=rig.prior.bounds()), LoopConfig(), events)
     near = world.centre_m + np.array([world.radius_m + 0.005, 0.0, 0.0])  # 5 mm off the sphere
@@ -133,35 +141,15 @@ def test_a_blocked_move_to_rest_backs_the_pad_out_along_its_axis_before_trying_a
 
 
 def test_a_move_to_rest_blocked_twice_ends_with_a_slow_guarded_move_there():
-    from fakes import FakePlanner, FakeRobot, sphere_rig, ScriptedStrategy
+    from fakes import ScriptedStrategy
     from reconstruction.gpis import GPIS
-    from robots.interface import MoveNotReachedError
 
-    class BlockedTwice(FakeRobot):
-        """Every move_joints to rest from away from it stops (a protective stop); guarded moves go."""
-
-        def __init__(self, world, rest):
-            super().__init__(world)
-            self.rest, self.calls = rest, []
-
-        def move_joints(self, q, speed_rad_s=1.0):
-            self.calls.append("move")
-            if np.allclose(q, self.rest) and not np.allclose(self.joint_positions(), self.rest):
-                raise MoveNotReachedError("protective stop: wrist pressed 300 N on the object")
-            super().move_joints(q, speed_rad_s)
-
-        def guarded_move(self, path, stop, speed_rad_s=0.2):
-            self.calls.append("guarded")
-            return super().guarded_move(path, stop, speed_rad_s)
-
-    world, rig = sphere_rig()
-    planner = FakePlanner(rig.positioner)
-    robot = BlockedTwice(world, planner.rest_q)
+    world, rig, planner = _blocked_on_the_way_to_rest(2)
+    robot = rig.robot
     events = _Events()
-    loop = ExplorationLoop(dataclasses.replace(rig, robot=robot), planner, ScriptedStrategy([]),
-                           GPIS(bounds=rig.prior.bounds()), LoopConfig(), events)
+    loop = ExplorationLoop(rig, planner, ScriptedStrategy([]), GPIS(bounds=rig.prior.bounds()), LoopConfig(), events)
     world.pad_m = world.centre_m + np.array([world.radius_m + 0.005, 0.0, 0.0])
     loop._to_rest()
     assert events.kinds == ["rest_blocked", "rest_forced"]
     np.testing.assert_allclose(robot.joint_positions(), planner.rest_q)
-    assert robot.calls[-2:] == ["guarded", "move"]  # the forced move, then the check that it is there
+    assert [c[0] for c in robot.calls[-2:]] == ["guarded", "move"]  # the forced move, then the check it is there
