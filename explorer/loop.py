@@ -394,7 +394,8 @@ class ExplorationLoop:
         point on the approach line behind the standoff and straight in along it (the way the pad
         will go on; :meth:`ApproachPlanner.retreat_path` from ``q``, reversed); then the same from
         the rest pose. A straight joint path from rest or from the last touch can sweep the hand
-        through the object, and the arm's protective stop ends it.
+        through the object, and the arm's protective stop ends it; so each of these free moves
+        goes around the prior box where the straight one would not clear it (:meth:`_free_route`).
 
         Returns False (arm back at rest) when ``q`` itself cannot be reached: the arm would
         touch the object there (the planner checks only the arm up to the wrist).
@@ -406,18 +407,32 @@ class ExplorationLoop:
             if attempt == "along the approach line" and not len(line):
                 continue
             try:
+                if attempt == "direct":
+                    self._free_route(q)
+                    return True
                 if attempt == "via rest":
-                    self._free_move(self.planner.rest_q)
-                if attempt != "direct" and len(line):
-                    self._free_move(line[0])
+                    self._free_route(self.planner.rest_q)
+                if len(line):
+                    self._free_route(line[0])
                     self.robot.guarded_move(np.vstack([line[1:], q[None]]), stop=lambda: False,
                                             speed_rad_s=self.config.transfer_speed_rad_s)
-                self._free_move(q)
+                    self._free_move(q)
+                else:
+                    self._free_route(q)
                 return True
             except MoveNotReachedError as err:
                 self.recorder.event("transfer_blocked", self.robot.time_s(), message=f"{attempt}: {err}")
         self._to_rest()
         return False
+
+    def _free_route(self, q: np.ndarray) -> None:
+        """Free move to ``q`` along :meth:`ApproachPlanner.transfer_path` (straight when that is
+        clear of the prior box; otherwise around it, with a ``free_path`` event)."""
+        route = self.planner.transfer_path(self.robot.joint_positions(), q)
+        if len(route) > 1:
+            self.recorder.event("free_path", self.robot.time_s(), waypoints=len(route))
+        for waypoint in route:
+            self._free_move(waypoint)
 
     def _free_move(self, q: np.ndarray) -> None:
         """Move to ``q`` at transfer speed; when blocked, step back the way it came
@@ -440,7 +455,7 @@ class ExplorationLoop:
         recorded kept."""
         rest = self.planner.rest_q
         try:
-            self._free_move(rest)
+            self._free_route(rest)
         except MoveNotReachedError as err:
             self.recorder.event("rest_blocked", self.robot.time_s(), message=str(err))
             retreat = self.planner.retreat_path(self.robot.joint_positions())

@@ -26,6 +26,11 @@ from explorer.strategies import fibonacci_directions
 from explorer.touch import ObjectPrior, Touch
 
 
+#: Arm spheres this close to the tool point (the finger that carries the fingertip) are left out of
+#: the free-move check: at a standoff they sit within centimetres of the object, as the pad does.
+FINGER_EXEMPT_M = 0.04
+
+
 @dataclass(frozen=True)
 class PlannerConfig:
     """Approach geometry and limits (metres, radians).
@@ -71,6 +76,10 @@ class PlannerConfig:
         Tilted directions per tilt angle (evenly spread around the approach).
     tilted_to_try : int
         Tilted directions planned (best reachability first) before the touch counts as unreachable.
+    free_move_clearance_m : float or None
+        Free moves (transfers, the move to rest) keep the arm up to the hand this far outside the
+        prior box where the straight joint path would not (:meth:`ApproachPlanner.transfer_path`,
+        :mod:`explorer.free_path`); None: straight joint paths only (the loop before this check).
     """
 
     standoff_m: float = 0.03
@@ -86,6 +95,7 @@ class PlannerConfig:
     approach_tilts_rad: tuple = ()
     tilt_azimuths: int = 8
     tilted_to_try: int = 4
+    free_move_clearance_m: float | None = 0.02
 
 
 @dataclass(frozen=True)
@@ -162,6 +172,7 @@ class ApproachPlanner:
         if collision_links is None:  # shoulder to wrist: everything before the hand
             collision_links = names[1:names.index(kinematics.spec.tool_link) - 1]
         self.collision_links = tuple(collision_links)
+        self._free_paths = None  # built on the first transfer_path (reads the URDF's collision shapes)
         self.rest_q = self._retreat_pose() if rest_q is None else np.asarray(rest_q, float)
         self._reach_dirs, self._reachable = self._reachability_map()
 
@@ -278,6 +289,31 @@ class ApproachPlanner:
         followed = result.success & ~jumps
         usable = len(points) if followed.all() else int(np.argmin(followed))
         return result.q_rad[:usable]
+
+    def transfer_path(self, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
+        """(k, dof) waypoints of a free move from ``q_from`` to ``q_to`` (the last row) at the current
+        stand pose: around the prior box when the straight joint path would take the arm (shoulder
+        to hand, :class:`robots.link_spheres.ArmSpheres`) within ``free_move_clearance_m`` of it
+        (:class:`explorer.free_path.FreePathPlanner`); ``q_to[None]`` when the straight path is
+        clear, no clear path was found, ``q_from`` or ``q_to`` is itself within the clearance
+        (a pad next to the object), or the check is off."""
+        q_to = np.asarray(q_to, float)
+        if self.config.free_move_clearance_m is None:
+            return q_to[None]
+        if self._free_paths is None:
+            from explorer.free_path import FreePathConfig, FreePathPlanner
+            from robots.link_spheres import ArmSpheres
+
+            names = list(self.kin.link_names)
+            spheres = ArmSpheres(self.kin, names[1:names.index(self.kin.spec.tool_link)])
+            home = np.asarray(self.kin.spec.home_q_rad, float)
+            tool = self.kin.pose_of_one(home, link=self.kin.spec.tool_link)[0]
+            spheres = spheres.subset(np.linalg.norm(spheres.centres_m(home[None])[0] - tool, axis=1)
+                                     > FINGER_EXEMPT_M)
+            self._free_paths = FreePathPlanner(spheres, self.prior, self.kin.lower_rad, self.kin.upper_rad,
+                                               FreePathConfig(clearance_m=self.config.free_move_clearance_m))
+        path = self._free_paths.plan(q_from, q_to, self.positioner.object_to_world())
+        return q_to[None] if path is None else path
 
     def prior_exit_m(self, target_m: np.ndarray, approach_dir: np.ndarray) -> float:
         """Distance (metres) from ``target_m`` along ``approach_dir`` (object frame) to where the line
