@@ -5,7 +5,8 @@ Public API:
 * runs: :func:`explore` (simulated run from :class:`RunSettings`), :func:`run_on_rig` with a
   :class:`Rig` (or :func:`open_rig` from a configuration file), :class:`RunResult`;
 * the loop and its parts: :class:`ExplorationLoop`, :class:`LoopConfig`, :class:`TouchOutcome`,
-  :class:`ApproachPlanner`, :class:`PlannerConfig`, :class:`Positioner`, :class:`FixedStand`,
+  :class:`ApproachPlanner`, :class:`PlannerConfig`, :class:`FreePathPlanner` with
+  :class:`FreePathConfig` (free moves around the prior box), :class:`Positioner`, :class:`FixedStand`,
   :class:`SimulatedStand`, :class:`StandPose`, :class:`ObjectPrior`, :class:`Touch`;
 * strategies: :class:`TouchStrategy` (subclass it), :class:`ExplorationState`,
   :func:`make_strategy`, :data:`STRATEGIES`, :class:`VarianceStrategy`, :class:`RandomStrategy`,
@@ -38,6 +39,8 @@ _LAZY = {
     "TouchOutcome": "explorer.touch",
     "ApproachPlanner": "explorer.planner",
     "PlannerConfig": "explorer.planner",
+    "FreePathPlanner": "explorer.free_path",
+    "FreePathConfig": "explorer.free_path",
     "Positioner": "explorer.positioner",
     "FixedStand": "explorer.positioner",
     "SimulatedStand": "explorer.positioner",

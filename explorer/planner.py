@@ -17,6 +17,7 @@ arms alike.
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -298,14 +299,19 @@ class ApproachPlanner:
         clear, no clear path was found, ``q_from`` or ``q_to`` is itself within the clearance
         (a pad next to the object), or the check is off."""
         q_to = np.asarray(q_to, float)
-        if self.config.free_move_clearance_m is None:
+        if self.config.free_move_clearance_m is None or self._free_paths is False:
             return q_to[None]
         if self._free_paths is None:
             from explorer.free_path import FreePathConfig, FreePathPlanner
             from robots.link_spheres import ArmSpheres
 
             names = list(self.kin.link_names)
-            spheres = ArmSpheres(self.kin, names[1:names.index(self.kin.spec.tool_link)])
+            try:
+                spheres = ArmSpheres(self.kin, names[1:names.index(self.kin.spec.tool_link)])
+            except ValueError as err:  # e.g. mesh collision shapes: no sphere model, straight moves as before
+                warnings.warn(f"{err}; free moves go straight in joint space", stacklevel=2)
+                self._free_paths = False
+                return q_to[None]
             home = np.asarray(self.kin.spec.home_q_rad, float)
             tool = self.kin.pose_of_one(home, link=self.kin.spec.tool_link)[0]
             spheres = spheres.subset(np.linalg.norm(spheres.centres_m(home[None])[0] - tool, axis=1)

@@ -3,7 +3,8 @@
 Public API (see robots/README.md):
 
 * specs: :func:`load`, :func:`names`, :func:`register`, :class:`RobotSpec`;
-* kinematics: :class:`ArmKinematics` (FK/Jacobian from the URDF), :class:`PadIK` / :func:`solve_pad_ik`;
+* kinematics: :class:`ArmKinematics` (FK/Jacobian from the URDF), :class:`PadIK` / :func:`solve_pad_ik`,
+  :class:`ArmSpheres` (the URDF's collision shapes as spheres placed by FK, for planning);
 * simulation: :class:`SimWorld`, :class:`TableSpec`, :class:`ObjectHandle`, :class:`SimArm`,
   :class:`EncoderModel`, :class:`ArmContact`.
 
@@ -19,6 +20,7 @@ from robots.spec import RobotSpec
 _LAZY = {
     "ArmKinematics": "robots.kinematics",
     "LinkPoses": "robots.kinematics",
+    "ArmSpheres": "robots.link_spheres",
     "PadIK": "robots.ik",
     "IKOptions": "robots.ik",
     "IKResult": "robots.ik",

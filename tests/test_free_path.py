@@ -166,3 +166,25 @@ def test_armar6_goes_around_the_cereal_box_where_the_straight_move_is_stopped():
             scene.arm.move_joints(waypoint, 1.0)  # no protective stop on the way
         assert np.max(np.abs(scene.arm.servo_positions() - top)) < 2.5e-3
         assert not [c for c in scene.arm.contacts() if c.other == "cereal_box"]
+        planner.config = dataclasses.replace(planner.config, free_move_clearance_m=None)
+        np.testing.assert_array_equal(planner.transfer_path(front, top), top[None])  # the check off: straight
+
+
+def test_an_arm_without_a_sphere_model_moves_straight_with_a_warning(monkeypatch):
+    import robots.link_spheres
+    from explorer.planner import ApproachPlanner
+    from explorer.positioner import FixedStand
+    from robots.ik import PadIK
+    from robots.kinematics import ArmKinematics
+
+    def refuse(urdf_path, links):
+        raise ValueError("URDF arm.urdf, link 'hand': collision geometry <mesh> is not supported")
+
+    monkeypatch.setattr(robots.link_spheres, "read_link_spheres", refuse)
+    kin = ArmKinematics(robots.load("armar3"))
+    prior = ObjectPrior(np.zeros(3), np.full(3, 0.05))
+    planner = ApproachPlanner(kin, PadIK(kin), FixedStand(np.asarray(kin.spec.workspace_center_m)), prior)
+    a, b = np.asarray(kin.spec.home_q_rad), np.asarray(kin.spec.home_q_rad) + 0.3
+    with pytest.warns(UserWarning, match="<mesh>.*free moves go straight"):
+        np.testing.assert_array_equal(planner.transfer_path(a, b), b[None])
+    np.testing.assert_array_equal(planner.transfer_path(b, a), a[None])  # once: no second warning
