@@ -390,25 +390,31 @@ class ExplorationLoop:
         return record
 
     def _transfer(self, q: np.ndarray) -> bool:
-        """Free move to the standoff ``q``: straight in joint space; when that is blocked, to a
-        point on the approach line behind the standoff and straight in along it (the way the pad
-        will go on; :meth:`ApproachPlanner.retreat_path` from ``q``, reversed); then the same from
-        the rest pose. A straight joint path from rest or from the last touch can sweep the hand
-        through the object, and the arm's protective stop ends it; so each of these free moves
-        goes around the prior box where the straight one would not clear it (:meth:`_free_route`).
+        """Free move to the standoff ``q``: directly (around the prior box where the straight joint
+        path would not clear it, :meth:`_free_route`); when that is blocked, to a point on the
+        approach line behind the standoff and straight in along it (the way the pad will go on;
+        :meth:`ApproachPlanner.retreat_path` from ``q``, reversed); then the same from the rest
+        pose. A straight joint path from rest or from the last touch can sweep the hand through
+        the object, and the arm's protective stop ends it. When no clear path to ``q`` is known
+        (a standoff inside the prior box, as in a bowl) the approach line comes first: the hand
+        then enters the box the way the pad does.
 
         Returns False (arm back at rest) when ``q`` itself cannot be reached: the arm would
         touch the object there (the planner checks only the arm up to the wrist).
         """
-        line = None  # far end first, the standoff's neighbour last; IK only once direct failed
-        for attempt in ("direct", "along the approach line", "via rest"):
+        route = self.planner.transfer_path(self.robot.joint_positions(), q)
+        attempts = ("direct", "along the approach line", "via rest")
+        if route is None:
+            attempts = ("along the approach line", "direct", "via rest")
+        line = None  # far end first, the standoff's neighbour last; IK only once needed
+        for attempt in attempts:
             if attempt != "direct" and line is None:
                 line = self.planner.retreat_path(q)[::-1]
             if attempt == "along the approach line" and not len(line):
                 continue
             try:
                 if attempt == "direct":
-                    self._free_route(q)
+                    self._free_route(q, route if attempt == attempts[0] else None)
                     return True
                 if attempt == "via rest":
                     self._free_route(self.planner.rest_q)
@@ -425,10 +431,13 @@ class ExplorationLoop:
         self._to_rest()
         return False
 
-    def _free_route(self, q: np.ndarray) -> None:
-        """Free move to ``q`` along :meth:`ApproachPlanner.transfer_path` (straight when that is
-        clear of the prior box; otherwise around it, with a ``free_path`` event)."""
-        route = self.planner.transfer_path(self.robot.joint_positions(), q)
+    def _free_route(self, q: np.ndarray, route: np.ndarray | None = None) -> None:
+        """Free move to ``q`` along ``route`` or else :meth:`ApproachPlanner.transfer_path` (around
+        the prior box, with a ``free_path`` event); straight when no clear path is known."""
+        if route is None:
+            route = self.planner.transfer_path(self.robot.joint_positions(), q)
+        if route is None:
+            route = np.asarray(q, float)[None]
         if len(route) > 1:
             self.recorder.event("free_path", self.robot.time_s(), waypoints=len(route))
         for waypoint in route:

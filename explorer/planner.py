@@ -291,13 +291,13 @@ class ApproachPlanner:
         usable = len(points) if followed.all() else int(np.argmin(followed))
         return result.q_rad[:usable]
 
-    def transfer_path(self, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
+    def transfer_path(self, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray | None:
         """(k, dof) waypoints of a free move from ``q_from`` to ``q_to`` (the last row) at the current
         stand pose: around the prior box when the straight joint path would take the arm (shoulder
         to hand, :class:`robots.link_spheres.ArmSpheres`) within ``free_move_clearance_m`` of it
         (:class:`explorer.free_path.FreePathPlanner`); ``q_to[None]`` when the straight path is
-        clear, no clear path was found, ``q_from`` or ``q_to`` is itself within the clearance
-        (a pad next to the object), or the check is off."""
+        clear or the check is off. None when no clear path is known: ``q_from`` or ``q_to`` is
+        itself within the clearance (e.g. a standoff inside a bowl), or the search found none."""
         q_to = np.asarray(q_to, float)
         if self.config.free_move_clearance_m is None or self._free_paths is False:
             return q_to[None]
@@ -318,8 +318,7 @@ class ApproachPlanner:
                                      > FINGER_EXEMPT_M)
             self._free_paths = FreePathPlanner(spheres, self.prior, self.kin.lower_rad, self.kin.upper_rad,
                                                FreePathConfig(clearance_m=self.config.free_move_clearance_m))
-        path = self._free_paths.plan(q_from, q_to, self.positioner.object_to_world())
-        return q_to[None] if path is None else path
+        return self._free_paths.plan(q_from, q_to, self.positioner.object_to_world())
 
     def prior_exit_m(self, target_m: np.ndarray, approach_dir: np.ndarray) -> float:
         """Distance (metres) from ``target_m`` along ``approach_dir`` (object frame) to where the line

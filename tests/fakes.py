@@ -156,14 +156,17 @@ class FakePlanner:
         self.positioner = positioner
         self.config = config
         self.unreachable = unreachable
-        self.detour = detour  # callable (q_from, q_to) -> (k, 3) waypoints before q_to, or None: straight
+        self.detour = detour  # callable (q_from, q_to) -> (k, 3) waypoints before q_to, or None: no clear path
         self.rest_q = positioner.centre_m + np.array([0.0, -0.2, 0.1])
 
-    def transfer_path(self, q_from, q_to) -> np.ndarray:
-        """Straight (``q_to`` alone) unless ``detour`` gives waypoints to pass first."""
+    def transfer_path(self, q_from, q_to) -> np.ndarray | None:
+        """Straight (``q_to`` alone) unless ``detour`` gives waypoints to pass first, or None (no
+        clear path known)."""
         q_to = np.asarray(q_to, float)
         via = None if self.detour is None else self.detour(np.asarray(q_from, float), q_to)
-        return q_to[None] if via is None or not len(via) else np.vstack([via, q_to[None]])
+        if via is None:
+            return None if self.detour is not None else q_to[None]
+        return q_to[None] if not len(via) else np.vstack([via, q_to[None]])
 
     def retreat_path(self, q, distance_m: float = 0.15, step_m: float = 0.01) -> np.ndarray:
         """The pad straight away from the stand centre (where the fake pad faces), ``step_m`` apart."""

@@ -96,8 +96,8 @@ def test_bad_config_is_named(field, value):
         FreePathConfig(**{field: value})
 
 
-def test_the_loop_follows_a_planned_route_and_records_it():
-    """A transfer and a move to rest go through the waypoints ``transfer_path`` gives, in order."""
+def _visiting_loop(detour):
+    """(world, robot recording each move_joints target, planner, event log, loop) on the fake rig."""
     from explorer.loop import ExplorationLoop, LoopConfig
     from fakes import FakePlanner, FakeRobot, ScriptedStrategy, sphere_rig
     from reconstruction.gpis import GPIS
@@ -121,10 +121,27 @@ def test_the_loop_follows_a_planned_route_and_records_it():
     world, rig = sphere_rig()
     robot = Visits(world)
     rig = dataclasses.replace(rig, robot=robot)
-    above = world.centre_m + np.array([0.0, 0.0, 0.2])
-    planner = FakePlanner(rig.positioner, detour=lambda q_from, q_to: above[None])
+    planner = FakePlanner(rig.positioner, detour=detour)
     events = Events()
     loop = ExplorationLoop(rig, planner, ScriptedStrategy([]), GPIS(bounds=rig.prior.bounds()), LoopConfig(), events)
+    return world, robot, planner, events, loop
+
+
+def test_with_no_clear_path_known_the_transfer_comes_in_along_the_approach_line_first():
+    world, robot, planner, events, loop = _visiting_loop(detour=lambda q_from, q_to: None)
+    world.pad_m = world.centre_m + np.array([0.1, 0.0, 0.0])
+    goal = world.centre_m + np.array([0.0, 0.0, world.radius_m + 0.03])  # a standoff above the sphere
+    assert loop._transfer(goal)
+    far = planner.retreat_path(goal)[-1]  # the approach line's far end
+    np.testing.assert_allclose(robot.visited[0], far)
+    np.testing.assert_allclose(robot.visited[-1], goal)
+    assert not [kind for kind, _ in events.kinds if kind == "transfer_blocked"]
+
+
+def test_the_loop_follows_a_planned_route_and_records_it():
+    """A transfer and a move to rest go through the waypoints ``transfer_path`` gives, in order."""
+    above = np.array([0.0, 0.5, 1.2])  # the fake rig's sphere sits at (0, 0.5, 1.0)
+    world, robot, planner, events, loop = _visiting_loop(detour=lambda q_from, q_to: above[None])
     world.pad_m = world.centre_m + np.array([0.1, 0.0, 0.0])
     goal = world.centre_m + np.array([-0.1, 0.0, 0.0])
     assert loop._transfer(goal)
