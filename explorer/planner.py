@@ -299,26 +299,32 @@ class ApproachPlanner:
         clear or the check is off. None when no clear path is known: ``q_from`` or ``q_to`` is
         itself within the clearance (e.g. a standoff inside a bowl), or the search found none."""
         q_to = np.asarray(q_to, float)
-        if self.config.free_move_clearance_m is None or self._free_paths is False:
+        if self.config.free_move_clearance_m is None:
             return q_to[None]
         if self._free_paths is None:
-            from explorer.free_path import FreePathConfig, FreePathPlanner
-            from robots.link_spheres import ArmSpheres
-
-            names = list(self.kin.link_names)
-            try:
-                spheres = ArmSpheres(self.kin, names[1:names.index(self.kin.spec.tool_link)])
-            except ValueError as err:  # e.g. mesh collision shapes: no sphere model, straight moves as before
-                warnings.warn(f"{err}; free moves go straight in joint space", stacklevel=2)
-                self._free_paths = False
-                return q_to[None]
-            home = np.asarray(self.kin.spec.home_q_rad, float)
-            tool = self.kin.pose_of_one(home, link=self.kin.spec.tool_link)[0]
-            spheres = spheres.subset(np.linalg.norm(spheres.centres_m(home[None])[0] - tool, axis=1)
-                                     > FINGER_EXEMPT_M)
-            self._free_paths = FreePathPlanner(spheres, self.prior, self.kin.lower_rad, self.kin.upper_rad,
-                                               FreePathConfig(clearance_m=self.config.free_move_clearance_m))
+            self._free_paths = self._free_path_planner()
+        if self._free_paths is False:
+            return q_to[None]
         return self._free_paths.plan(q_from, q_to, self.positioner.object_to_world())
+
+    def _free_path_planner(self):
+        """The free-move planner over the arm's spheres, shoulder to hand, without the finger next
+        to the tool point (:data:`FINGER_EXEMPT_M`); False (one warning) when the URDF has no
+        sphere model, e.g. mesh collision shapes: free moves then stay straight."""
+        from explorer.free_path import FreePathConfig, FreePathPlanner
+        from robots.link_spheres import ArmSpheres
+
+        names = list(self.kin.link_names)
+        try:
+            spheres = ArmSpheres(self.kin, names[1:names.index(self.kin.spec.tool_link)])
+        except ValueError as err:
+            warnings.warn(f"{err}; free moves go straight in joint space", stacklevel=3)
+            return False
+        home = np.asarray(self.kin.spec.home_q_rad, float)
+        tool = self.kin.pose_of_one(home, link=self.kin.spec.tool_link)[0]
+        spheres = spheres.subset(np.linalg.norm(spheres.centres_m(home[None])[0] - tool, axis=1) > FINGER_EXEMPT_M)
+        return FreePathPlanner(spheres, self.prior, self.kin.lower_rad, self.kin.upper_rad,
+                               FreePathConfig(clearance_m=self.config.free_move_clearance_m))
 
     def prior_exit_m(self, target_m: np.ndarray, approach_dir: np.ndarray) -> float:
         """Distance (metres) from ``target_m`` along ``approach_dir`` (object frame) to where the line

@@ -15,7 +15,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+from robots.urdf_check import _floats
+from robots.urdf_model import rpy_matrix
 
 
 @dataclass(frozen=True)
@@ -79,13 +81,13 @@ def read_link_spheres(urdf_path: Path, links: tuple[str, ...] | list[str]) -> li
         centres, radii = [np.zeros((0, 3))], [np.zeros(0)]
         for collision in by_name[link].findall("collision"):
             origin = collision.find("origin")
-            xyz = np.array([float(v) for v in (origin.get("xyz", "0 0 0") if origin is not None else "0 0 0").split()])
-            rpy = [float(v) for v in (origin.get("rpy", "0 0 0") if origin is not None else "0 0 0").split()]
+            xyz = np.array(_floats(None if origin is None else origin.get("xyz"), (0.0, 0.0, 0.0)))
+            rpy = _floats(None if origin is None else origin.get("rpy"), (0.0, 0.0, 0.0))
             geometry = collision.find("geometry")
             if geometry is None or not len(geometry):
                 raise ValueError(f"URDF {urdf_path}, link {link!r}: <collision> without a geometry")
             c, r = _primitive_spheres(geometry[0], f"URDF {urdf_path}, link {link!r}")
-            centres.append(c @ Rotation.from_euler("xyz", rpy).as_matrix().T + xyz)
+            centres.append(c @ rpy_matrix(rpy).T + xyz)
             radii.append(r)
         out.append(LinkSpheres(link, np.vstack(centres), np.concatenate(radii)))
     return out
