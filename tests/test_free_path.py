@@ -205,3 +205,12 @@ def test_an_arm_without_a_sphere_model_moves_straight_with_a_warning(monkeypatch
     with pytest.warns(UserWarning, match="<mesh>.*free moves go straight"):
         np.testing.assert_array_equal(planner.transfer_path(a, b), b[None])
     np.testing.assert_array_equal(planner.transfer_path(b, a), a[None])  # once: no second warning
+
+
+def test_the_free_path_benchmark_refuses_a_bad_budget_with_one_line(capsys):
+    from scripts.free_path_benchmark import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--touches", "1"])
+    assert stop.value.code == 2
+    assert "--touches must be >= 2" in capsys.readouterr().err
