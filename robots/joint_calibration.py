@@ -134,8 +134,15 @@ class _FastResiduals:
         return np.linalg.norm(points - self.touches.centre_m, axis=1) - self.touches.radius_m
 
 
+#: Robust fit defaults (:func:`fit_joint_offsets` ``robust_scale_m``), chosen on the hardware-like
+#: ball touches of ARMAR-6 and ARMAR-III at seed 0 and checked on ARMAR-6 seeds 1 and 2 (BENCHMARKS.md).
+ROBUST_SCALE_M = 5e-4
+ROBUST_RIDGE_M_PER_RAD = 0.2
+
+
 def fit_joint_offsets(kinematics, touches: SphereTouches, ridge_m_per_rad: float = 0.02,
-                      link_lengths: bool = False, ridge_m_per_m: float = 0.05) -> FitResult:
+                      link_lengths: bool = False, ridge_m_per_m: float = 0.05,
+                      robust_scale_m: float | None = None) -> FitResult:
     """Least-squares joint offsets (and link lengths) from sphere touches (module docstring).
 
     Parameters
@@ -149,6 +156,15 @@ def fit_joint_offsets(kinematics, touches: SphereTouches, ridge_m_per_rad: float
         Also fit the arm's link lengths (:func:`robots.link_lengths.arm_link_lengths`).
     ridge_m_per_m : float
         Weight of the ridge term on the link-length errors (metres of residual per metre).
+    robust_scale_m : float, optional
+        Fit with a Cauchy loss of this scale, metres, on every row, the ridge rows included,
+        started at zero offsets. A pad that did not lie flat on the ball (friction stopped it
+        turning, or it met the ball with its rim) is several millimetres off the sphere; least
+        squares bends every offset towards such touches, the Cauchy loss lets them go. On the ridge
+        rows the same loss is a heavy-tailed prior on each parameter (scale ``robust_scale_m /
+        ridge``): a small pull towards zero that large offsets the touches demand can overcome.
+        The touches see the pad only along the ball's radius, so directions that slide the pad
+        over the ball stay unseen; that prior keeps them at zero. None: plain least squares.
     """
     from scipy.optimize import least_squares
 
@@ -170,18 +186,35 @@ def fit_joint_offsets(kinematics, touches: SphereTouches, ridge_m_per_rad: float
         return np.concatenate([fast(x[:dof], x[dof:]), ridge_m_per_rad * x[:dof], ridge_m_per_m * x[dof:]])
 
     scale = np.concatenate([np.full(dof, 0.01), np.full(len(names), 0.001)])
-    solution = least_squares(residuals, np.zeros(unknowns), method="trf", x_scale=scale, diff_step=1e-6)
+    if robust_scale_m is not None and not robust_scale_m > 0.0:
+        raise ValueError(f"robust_scale_m must be positive metres, got {robust_scale_m}")
+    loss = dict(loss="cauchy", f_scale=robust_scale_m) if robust_scale_m else {}
+    solution = least_squares(residuals, np.zeros(unknowns), method="trf", x_scale=scale, diff_step=1e-6, **loss)
     n = len(touches.q_rad)
-    jac = solution.jac[:n]
+    jac = _touch_jacobian(fast, solution.x, dof) if robust_scale_m else solution.jac[:n]  # unweighted rows
     singular = np.linalg.svd(jac, compute_uv=False)
     offset, lengths = split(solution.x)
     after = sphere_residuals_m(kinematics, touches, offset, lengths)
     ridge = np.concatenate([np.full(dof, ridge_m_per_rad**2), np.full(len(names), ridge_m_per_m**2)])
-    sigma = float(np.sqrt(np.sum(after**2) / max(n - unknowns, 1)))
+    if robust_scale_m:  # the scatter of the touches the loss kept, not of the ones it let go
+        sigma = float(1.4826 * np.median(np.abs(after - np.median(after))))
+    else:
+        sigma = float(np.sqrt(np.sum(after**2) / max(n - unknowns, 1)))
     std = sigma * np.sqrt(np.diag(np.linalg.inv(jac.T @ jac + np.diag(ridge))))
     return FitResult(offset_rad=offset, residual_before_m=sphere_residuals_m(kinematics, touches, np.zeros(dof)),
                      residual_after_m=after, singular_values=singular,
                      link_length_error_m={k: float(v) for k, v in lengths.items()}, parameter_std=std)
+
+
+def _touch_jacobian(fast: _FastResiduals, x: np.ndarray, dof: int, step: float = 1e-6) -> np.ndarray:
+    """(n, unknowns) central-difference Jacobian of the touch residuals at ``x``."""
+    columns = []
+    for j in range(len(x)):
+        up, down = x.copy(), x.copy()
+        up[j] += step
+        down[j] -= step
+        columns.append((fast(up[:dof], up[dof:]) - fast(down[:dof], down[dof:])) / (2.0 * step))
+    return np.stack(columns, axis=1)
 
 
 #: Ridge weights (metres of residual per radian) :func:`cross_validated_ridge` chooses from.

@@ -4,7 +4,9 @@ show before/after.
 The lab procedure of :mod:`robots.joint_calibration` run on the simulated robot of a profile: a
 5 cm ball is placed at three known places in front of the arm; the fingertip touches it at
 ``--touches`` poses (guarded approach stopped by the pressure detector, held while the spring
-settles, orientation from the IMU). The first two thirds of the touches calibrate, the last third
+settles, orientation from the IMU). The first two thirds of the touches calibrate (a robust fit by
+default: a touch whose pad did not lie flat on the ball does not bend the offsets; ``--least-squares``
+is the plain fit with a cross-validated ridge), the last third
 are held out: their pad position computed from the encoders is compared with the simulator's true
 pad position before and after the offsets are applied. Writes ``joint_calibration.json`` and
 ``joint_calibration.png`` into ``--out``.
@@ -174,6 +176,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--link-lengths", action="store_true",
                         help="fit the arm's link lengths too (off by default: from one ball at three places "
                              "their standard errors, 0.5-1 mm on ARMAR-III, exceed the errors; BENCHMARKS.md)")
+    parser.add_argument("--least-squares", action="store_true",
+                        help="plain least squares with a cross-validated ridge (the fit before the robust default; "
+                             "every touch weighs, also one whose pad did not lie flat on the ball)")
     parser.add_argument("--kinematic", action="store_true",
                         help="touches from kinematics and the profile's sensor errors, no physics (seconds)")
     parser.add_argument("--out", type=Path, required=True)
@@ -186,7 +191,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(str(error))
     if args.touches < 12:
         parser.error(f"--touches must be at least 12 (8 to calibrate 7 joints, 4 held out), got {args.touches}")
-    from robots.joint_calibration import SphereTouches, cross_validated_ridge, fit_joint_offsets
+    from robots.joint_calibration import (ROBUST_RIDGE_M_PER_RAD, ROBUST_SCALE_M, SphereTouches, cross_validated_ridge,
+                                          fit_joint_offsets)
     from robots.link_lengths import link_length_shift_m
 
     started = time.perf_counter()
@@ -202,9 +208,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"calibrate_joints: only {len(q)} touches were usable; raise --touches", file=sys.stderr)
         return 1
     calibration_touches = SphereTouches(q[:n_fit], quats[:n_fit], balls[:n_fit], BALL_RADIUS_M)
-    ridge = cross_validated_ridge(kinematics, calibration_touches, link_lengths=args.link_lengths)
-    fit = fit_joint_offsets(kinematics, calibration_touches, ridge_m_per_rad=ridge.ridge_m_per_rad,
-                            link_lengths=args.link_lengths)
+    if args.least_squares:
+        ridge = cross_validated_ridge(kinematics, calibration_touches, link_lengths=args.link_lengths)
+        ridge_m_per_rad, robust_scale_m, scores = ridge.ridge_m_per_rad, None, ridge.scores_m
+    else:
+        ridge_m_per_rad, robust_scale_m, scores = ROBUST_RIDGE_M_PER_RAD, ROBUST_SCALE_M, {}
+    fit = fit_joint_offsets(kinematics, calibration_touches, ridge_m_per_rad=ridge_m_per_rad,
+                            link_lengths=args.link_lengths, robust_scale_m=robust_scale_m)
 
     def errors_mm(offset, lengths):
         computed = kinematics.pad_position_from_orientation(q[n_fit:] - offset, quats[n_fit:])
@@ -226,8 +236,12 @@ def main(argv: list[str] | None = None) -> int:
         "fitted_link_length_error_mm": {k: round(1e3 * v, 4) for k, v in fit.link_length_error_m.items()},
         "link_length_std_mm": dict(zip(fit.link_length_error_m, (1e3 * fit.parameter_std[dof:]).round(4).tolist())),
         "singular_values": fit.singular_values.round(5).tolist(),
-        "ridge_m_per_rad": ridge.ridge_m_per_rad,
-        "ridge_cross_validation_rms_mm": {str(k): round(1e3 * v[0], 4) for k, v in ridge.scores_m.items()},
+        "fit": "least squares, cross-validated ridge" if args.least_squares else "robust (Cauchy loss)",
+        "robust_scale_mm": None if robust_scale_m is None else 1e3 * robust_scale_m,
+        "touches_off_the_ball": (None if robust_scale_m is None
+                                 else int(np.sum(np.abs(fit.residual_after_m) > 3 * robust_scale_m))),
+        "ridge_m_per_rad": ridge_m_per_rad,
+        "ridge_cross_validation_rms_mm": {str(k): round(1e3 * v[0], 4) for k, v in scores.items()},
         "ball_residual_rms_mm": {"before": float(1e3 * np.sqrt(np.mean(fit.residual_before_m**2))),
                                  "after": float(1e3 * np.sqrt(np.mean(fit.residual_after_m**2)))},
         "held_out_pad_error_mm": {"before_mean": float(before.mean()), "before_max": float(before.max()),

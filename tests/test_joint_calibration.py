@@ -140,3 +140,58 @@ def test_cross_validation_keeps_a_small_ridge_for_clean_touches_and_a_large_one_
     loose = fit_joint_offsets(kinematics, noisy, ridge_m_per_rad=RIDGE_LADDER_M_PER_RAD[0]).offset_rad
     chosen = fit_joint_offsets(kinematics, noisy, ridge_m_per_rad=choice.ridge_m_per_rad).offset_rad
     assert np.linalg.norm(chosen) < np.linalg.norm(loose)
+
+
+def _pivot_error_m(kinematics, injected, fitted) -> float:
+    """Mean pivot position error, metres, at 50 poses none of the touches used."""
+    spec = kinematics.spec
+    poses = spec.home_q + np.radians(15.0) * np.random.default_rng(2).uniform(-1, 1, (50, spec.dof))
+    truth = kinematics.forward_kinematics(poses, spec.pivot_link).position_m
+    computed = kinematics.forward_kinematics(poses + injected - fitted, spec.pivot_link).position_m
+    return float(np.linalg.norm(computed - truth, axis=1).mean())
+
+
+def test_a_robust_fit_lets_touches_off_the_ball_go(kinematics, true_touches):
+    """A fifth of the touches 3-6 mm off the sphere (a pad that did not lie flat): least squares
+    bends the offsets towards them, the robust fit recovers the arm as if they were not there."""
+    from robots.joint_calibration import ROBUST_RIDGE_M_PER_RAD, ROBUST_SCALE_M
+
+    q_true, quats, centre, radius = true_touches
+    injected = np.radians([0.6, -0.4, 0.3, 0.5, -0.7, 0.2, -0.3])
+    rng = np.random.default_rng(5)
+    pads = kinematics.pad_position_from_orientation(q_true, quats)
+    outward = (pads - centre) / np.linalg.norm(pads - centre, axis=1, keepdims=True)
+    off = rng.random(len(q_true)) < 0.2
+    shifted = centre - np.where(off, rng.uniform(3e-3, 6e-3, len(q_true)), 0.0)[:, None] * outward
+    touches = SphereTouches(q_true + injected, quats, shifted, radius)
+    assert off.sum() >= 4
+    plain = fit_joint_offsets(kinematics, touches, ridge_m_per_rad=ROBUST_RIDGE_M_PER_RAD)
+    robust = fit_joint_offsets(kinematics, touches, ridge_m_per_rad=ROBUST_RIDGE_M_PER_RAD,
+                               robust_scale_m=ROBUST_SCALE_M)
+    clean = fit_joint_offsets(kinematics, SphereTouches(q_true + injected, quats, centre, radius),
+                              ridge_m_per_rad=ROBUST_RIDGE_M_PER_RAD, robust_scale_m=ROBUST_SCALE_M)
+    # shoulder and elbow offsets (the ones the touches determine: the first test) as if clean
+    robust_error = np.abs(robust.offset_rad - injected)[:4]
+    assert robust_error.max() < math.radians(0.05)
+    assert np.abs(clean.offset_rad - injected)[:4].max() < math.radians(0.05)
+    assert np.abs(plain.offset_rad - injected)[:4].max() > 3 * robust_error.max()
+    # and what the loop computes: the pivot at untouched poses
+    assert _pivot_error_m(kinematics, injected, robust.offset_rad) < _pivot_error_m(kinematics, injected,
+                                                                                    plain.offset_rad)
+    assert _pivot_error_m(kinematics, injected, robust.offset_rad) < 0.2 * _pivot_error_m(kinematics, injected, 0.0)
+    # the touches off the ball are the ones left with large residuals
+    assert np.all(np.abs(robust.residual_after_m[off]) > 2e-3)
+    assert np.median(np.abs(robust.residual_after_m[~off])) < 0.5e-3
+
+
+def test_the_robust_fit_reports_the_unweighted_jacobian(kinematics, true_touches):
+    """Its singular values are those of the touch residuals themselves, as plain least squares
+    reports them (scipy's Jacobian there), not of the loss-weighted rows."""
+    q_true, quats, centre, radius = true_touches
+    touches = SphereTouches(q_true + np.radians(0.3), quats, centre, radius)
+    plain = fit_joint_offsets(kinematics, touches, ridge_m_per_rad=0.0)
+    robust = fit_joint_offsets(kinematics, touches, ridge_m_per_rad=0.0, robust_scale_m=1.0)  # ~ quadratic
+    np.testing.assert_allclose(robust.offset_rad, plain.offset_rad, atol=math.radians(0.01))
+    np.testing.assert_allclose(robust.singular_values, plain.singular_values, rtol=1e-3)
+    with pytest.raises(ValueError, match="robust_scale_m must be positive"):
+        fit_joint_offsets(kinematics, touches, robust_scale_m=-1e-3)

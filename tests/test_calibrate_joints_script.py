@@ -1,0 +1,30 @@
+"""``scripts.calibrate_joints`` end to end on kinematic touches (seconds): the file it writes, and bad input."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from scripts import calibrate_joints
+
+
+@pytest.mark.parametrize("extra, fit", [([], "robust (Cauchy loss)"), (["--least-squares"], "least squares")])
+def test_the_calibration_file_says_how_it_was_fitted_and_what_it_gained(tmp_path, extra, fit):
+    out = tmp_path / "calibration"
+    status = calibrate_joints.main(["--kinematic", "--robot", "armar3", "--touches", "36", "--seed", "0",
+                                    "--out", str(out), *extra])
+    assert status == 0
+    result = json.loads((out / "joint_calibration.json").read_text())
+    assert result["fit"].startswith(fit)
+    assert result["touches_from"] == "kinematics" and result["robot"] == "armar3"
+    held_out = result["held_out_pad_error_mm"]
+    assert held_out["after_mean"] < 0.5 * held_out["before_mean"]
+    assert (result["touches_off_the_ball"] is None) == bool(extra)
+    assert (out / "joint_calibration.png").exists()
+
+
+def test_too_few_touches_are_refused_with_the_fix(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        calibrate_joints.main(["--touches", "5", "--out", "unused"])
+    assert exit_info.value.code == 2
+    assert "--touches must be at least 12" in capsys.readouterr().err
