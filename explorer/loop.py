@@ -225,6 +225,11 @@ class ExplorationLoop:
         self.kin = rig.kinematics
         self.positioner = rig.positioner
         self.prior = rig.prior
+        reserve = planner.config.press_reserve_m
+        if reserve < 2 * config.press_depth_m:
+            raise ValueError(f"PlannerConfig.press_reserve_m ({1e3 * reserve:.1f} mm) must be at least twice "
+                             f"LoopConfig.press_depth_m ({1e3 * config.press_depth_m:.1f} mm): a contact at the "
+                             "end of an approach line needs room for the press and the re-press")
         self.planner = planner
         self.strategy = strategy
         self.gpis = gpis

@@ -42,7 +42,7 @@ class PlannerConfig:
         Pad distance before the target where the guarded move starts.
     depth_m : float
         How far beyond the target the guarded move may go before the touch counts as a miss, at
-        least (a touch may set its own).
+        least (a touch may set its own; ``press_reserve_m`` is added).
     probe_depth_m : float
         A touch that leaves its depth to the planner (``Touch.depth_m`` None: the ``variance`` and
         ``efficient`` proposals) goes on past the target until it leaves the prior box, at most this
@@ -50,8 +50,13 @@ class PlannerConfig:
         joint-step check fails, but never shorter than ``depth_m``). The GPIS's surface is a guess:
         inside a cup or a bowl the real surface lies centimetres behind the lid the GPIS closes over
         the opening, and a probe that stops 3 cm past it is a miss. ``depth_m`` switches it off.
+    press_reserve_m : float
+        The line goes on this far beyond its depth (or probe), so that a contact found at its very
+        end still leaves the loop's press and re-press their travel (``LoopConfig.press_depth_m``
+        each). Without it a pad that met the surface on the line's last millimetres stopped at a
+        fraction of the press force and was rejected as a press on the pad's side.
     waypoint_spacing_m : float
-        Spacing of IK waypoints along the approach line.
+        Spacing of IK waypoints along the approach line (the last one is at the line's end).
     max_joint_step_rad : float
         Largest joint change between consecutive waypoints (larger = IK jumped branch).
     reach_map_directions : int
@@ -86,6 +91,7 @@ class PlannerConfig:
     standoff_m: float = 0.03
     depth_m: float = 0.03
     probe_depth_m: float = 0.15
+    press_reserve_m: float = 0.005
     waypoint_spacing_m: float = 0.01
     max_joint_step_rad: float = 0.25
     reach_map_directions: int = 160
@@ -136,12 +142,14 @@ class ApproachPlan:
 def approach_line(target_m: np.ndarray, approach_dir: np.ndarray, config: PlannerConfig,
                   depth_m: float | None = None) -> np.ndarray:
     """(k, 3) pad positions of a touch's approach: ``standoff_m`` before the target to ``depth_m``
-    beyond it (default ``config.depth_m``), every ``waypoint_spacing_m``; in the frame of the inputs.
+    (default ``config.depth_m``) plus ``press_reserve_m`` beyond it, every ``waypoint_spacing_m``
+    and at the end itself; in the frame of the inputs.
 
     The loop's guarded move follows these; a miss sweeps them free.
     """
-    depth = config.depth_m if depth_m is None else depth_m
-    offsets = np.arange(-config.standoff_m, depth + 1e-9, config.waypoint_spacing_m)
+    end = (config.depth_m if depth_m is None else depth_m) + config.press_reserve_m
+    offsets = np.arange(-config.standoff_m, end, config.waypoint_spacing_m)
+    offsets = np.append(offsets[offsets < end - 1e-6], end)
     return target_m + offsets[:, None] * approach_dir
 
 

@@ -138,3 +138,33 @@ def test_a_probe_through_a_guessed_surface_is_remembered_and_a_restore_keeps_it(
                             GPIS(bounds=fresh_rig.prior.bounds()), LoopConfig(touches=3))
     fresh.restore(records)
     np.testing.assert_array_equal(np.array(fresh.state.passed_m), passed)
+
+
+
+def test_a_surface_at_the_very_end_of_the_line_is_still_pressed():
+    """The sphere lies 0.4 mm before the end of the touch's depth: the press needs the planner's
+    reserve beyond it. Without one (as before the reserve) the pad stops short of the press force
+    (on the simulated arm, a press the side-press rule then rejects)."""
+    from dataclasses import replace
+
+    from explorer.planner import PlannerConfig
+
+    at_end = Touch(np.array([0.0, 0.0, RADIUS_M + 0.0196]), np.array([0.0, 0.0, -1.0]), strategy="scripted",
+                   depth_m=0.02)
+    loop_config = LoopConfig(touches=1, proposal_rounds=1, repress_force_n=0.0)
+
+    def run(reserve_m):
+        world, rig = sphere_rig(RADIUS_M)
+        planner = FakePlanner(rig.positioner)
+        loop = ExplorationLoop(rig, planner, ScriptedStrategy([at_end]), GPIS(bounds=rig.prior.bounds()), loop_config)
+        planner.config = replace(planner.config, press_reserve_m=reserve_m)  # past the loop's own check
+        return loop.run()[0]
+
+    reserved, cut_short = run(PlannerConfig().press_reserve_m), run(0.0)
+    assert reserved.kind == cut_short.kind == "contact"
+    assert reserved.quality.peak_force_n >= loop_config.press_force_n > cut_short.quality.peak_force_n
+    too_short = replace(PlannerConfig(), press_reserve_m=1.5 * loop_config.press_depth_m)
+    world, rig = sphere_rig(RADIUS_M)
+    with pytest.raises(ValueError, match="press_reserve_m"):
+        ExplorationLoop(rig, FakePlanner(rig.positioner, config=too_short), ScriptedStrategy([at_end]),
+                        GPIS(bounds=rig.prior.bounds()), loop_config)

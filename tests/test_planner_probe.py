@@ -60,17 +60,29 @@ def test_a_touch_without_its_own_depth_probes_through_the_prior_box(planner):
     target, approach = np.array([-HALF_M, 0.0, 0.0]), np.array([1.0, 0.0, 0.0])
     plan = planner.plan(Touch(target, approach), tilted=False)
     assert plan is not None
-    spacing = planner.config.waypoint_spacing_m
-    expected = min(planner.config.probe_depth_m, 2 * HALF_M)
-    assert expected - spacing <= depth_reached(plan) <= expected + 1e-9
-    assert depth_reached(plan) > planner.config.depth_m + spacing
+    expected = min(planner.config.probe_depth_m, 2 * HALF_M) + planner.config.press_reserve_m
+    assert depth_reached(plan) == pytest.approx(expected, abs=1e-9)
+    assert depth_reached(plan) > planner.config.depth_m + planner.config.waypoint_spacing_m
 
 
 def test_a_touch_with_its_own_depth_keeps_it(planner):
     target, approach = np.array([-HALF_M, 0.0, 0.0]), np.array([1.0, 0.0, 0.0])
     plan = planner.plan(Touch(target, approach, depth_m=0.02), tilted=False)
     assert plan is not None
-    assert depth_reached(plan) == pytest.approx(0.02, abs=1e-9)
+    assert depth_reached(plan) == pytest.approx(0.02 + planner.config.press_reserve_m, abs=1e-9)
+
+
+@pytest.mark.parametrize("depth_m", [0.0155, 0.02, 0.0299])
+def test_the_line_ends_at_its_depth_and_reserve_not_a_spacing_short(depth_m):
+    from explorer.planner import PlannerConfig, approach_line
+
+    config = PlannerConfig()
+    line = approach_line(np.zeros(3), np.array([0.0, 0.0, -1.0]), config, depth_m)
+    offsets = -line[:, 2]
+    assert offsets[0] == pytest.approx(-config.standoff_m)
+    assert offsets[-1] == pytest.approx(depth_m + config.press_reserve_m)
+    steps = np.diff(offsets)
+    assert np.all(steps > 1e-6) and np.all(steps <= config.waypoint_spacing_m + 1e-9)
 
 
 def test_the_probe_is_cut_where_the_arm_cannot_follow_but_not_shorter_than_the_depth(planner):
@@ -94,7 +106,7 @@ def test_probe_depth_equal_to_the_depth_is_the_old_planner(kinematics, planner):
                           dataclasses.replace(planner.config, probe_depth_m=planner.config.depth_m),
                           rest_q=planner.rest_q)
     plan = old.plan(Touch(np.array([-HALF_M, 0.0, 0.0]), np.array([1.0, 0.0, 0.0])), tilted=False)
-    assert depth_reached(plan) == pytest.approx(planner.config.depth_m, abs=1e-9)
+    assert depth_reached(plan) == pytest.approx(planner.config.depth_m + planner.config.press_reserve_m, abs=1e-9)
 
 
 def test_the_probe_depth_is_set_from_the_configuration_the_sweep_and_the_command_line(tmp_path):
