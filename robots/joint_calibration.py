@@ -135,7 +135,7 @@ class _FastResiduals:
 
 
 #: Robust fit defaults (:func:`fit_joint_offsets` ``robust_scale_m``), chosen on the hardware-like
-#: ball touches of ARMAR-6 and ARMAR-III at seed 0 and checked on ARMAR-6 seeds 1 and 2 (BENCHMARKS.md).
+#: ball touches of ARMAR-6 and ARMAR-III at seed 0 and checked on ARMAR-6 seeds 1-3 (BENCHMARKS.md).
 ROBUST_SCALE_M = 5e-4
 ROBUST_RIDGE_M_PER_RAD = 0.2
 
@@ -143,7 +143,7 @@ ROBUST_RIDGE_M_PER_RAD = 0.2
 def fit_joint_offsets(kinematics, touches: SphereTouches, ridge_m_per_rad: float = 0.02,
                       link_lengths: bool = False, ridge_m_per_m: float = 0.05,
                       robust_scale_m: float | None = None) -> FitResult:
-    """Least-squares joint offsets (and link lengths) from sphere touches (module docstring).
+    """Joint offsets (and link lengths) from sphere touches, least squares or robust (module docstring).
 
     Parameters
     ----------
@@ -168,6 +168,8 @@ def fit_joint_offsets(kinematics, touches: SphereTouches, ridge_m_per_rad: float
     """
     from scipy.optimize import least_squares
 
+    if robust_scale_m is not None and not robust_scale_m > 0.0:
+        raise ValueError(f"robust_scale_m must be positive metres, got {robust_scale_m}")
     dof = touches.q_rad.shape[1]
     links = _arm_links(kinematics) if link_lengths else ()
     names = [link.joint for link in links]
@@ -186,8 +188,6 @@ def fit_joint_offsets(kinematics, touches: SphereTouches, ridge_m_per_rad: float
         return np.concatenate([fast(x[:dof], x[dof:]), ridge_m_per_rad * x[:dof], ridge_m_per_m * x[dof:]])
 
     scale = np.concatenate([np.full(dof, 0.01), np.full(len(names), 0.001)])
-    if robust_scale_m is not None and not robust_scale_m > 0.0:
-        raise ValueError(f"robust_scale_m must be positive metres, got {robust_scale_m}")
     loss = dict(loss="cauchy", f_scale=robust_scale_m) if robust_scale_m else {}
     solution = least_squares(residuals, np.zeros(unknowns), method="trf", x_scale=scale, diff_step=1e-6, **loss)
     n = len(touches.q_rad)
