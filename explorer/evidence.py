@@ -1,4 +1,5 @@
-"""What a touch tells the GPIS: a contact (a surface point and normal) or, for a miss, free space.
+"""What a touch tells the GPIS: a contact (a surface point and normal), for a miss free space, and
+for a press on the pad's side that the surface is within the pad's reach.
 
 The loop, resume and replay feed the GPIS through one :class:`SurfaceEvidence`, so a replay with the
 recorded settings updates the field in the same order with the same values. Free space seen before
@@ -21,13 +22,19 @@ class SurfaceEvidence:
         Implicit-function value of a point a missed approach swept (see ``LoopConfig``).
     free_space_noise : float
         Standard deviation of those values.
+    side_press_value, side_press_noise : float or None
+        Implicit-function value (and its standard deviation) at the pad-face centre of a press on
+        the pad's side; None: such presses add nothing.
     """
 
-    def __init__(self, gpis: GPIS, free_space_value: float, free_space_noise: float):
+    def __init__(self, gpis: GPIS, free_space_value: float, free_space_noise: float,
+                 side_press_value: float | None = None, side_press_noise: float | None = None):
         self.gpis = gpis
         self.free_space_value = free_space_value
         self.free_space_noise = free_space_noise
-        self._pending: list[np.ndarray] = []
+        self.side_press_value = side_press_value
+        self.side_press_noise = side_press_noise
+        self._pending: list[tuple[np.ndarray, float, float]] = []
 
     def add_contact(self, point: np.ndarray, normal: np.ndarray, normal_noise: float | None = None) -> None:
         """A surface point (3,) and outward unit normal (3,); raises ValueError outside the GPIS bounds.
@@ -36,18 +43,24 @@ class SurfaceEvidence:
         """
         first = self.gpis.n_contacts == 0
         self.gpis.add(point, normal, normal_noise=normal_noise)
-        if first and self._pending:
-            self._add_values(np.vstack(self._pending))
+        if first:
+            for points, value, noise in self._pending:
+                self._add_values(points, value, noise)
             self._pending = []
 
     def add_free_space(self, points: np.ndarray) -> None:
         """(k, 3) points outside the object (held back until the first contact)."""
-        if not len(points):
+        self._add_values(points, self.free_space_value, self.free_space_noise)
+
+    def add_side_press(self, pad_m: np.ndarray) -> None:
+        """The (3,) pad-face centre of a press on the pad's side (``TouchOutcome.side_m``): the
+        surface the pad met lies between the face centre and the pad's corners. Nothing when
+        ``side_press_noise`` is None or the point is outside the bounds; held back until the first
+        contact."""
+        if self.side_press_noise is None:
             return
-        if self.gpis.n_contacts == 0:
-            self._pending.append(points)
-            return
-        self._add_values(points)
+        self._add_values(self.inside_bounds(np.asarray(pad_m, float)[None]), self.side_press_value,
+                         self.side_press_noise)
 
     def inside_bounds(self, points: np.ndarray) -> np.ndarray:
         """The (k, 3) points strictly inside the GPIS bounds (all when it has none)."""
@@ -56,6 +69,10 @@ class SurfaceEvidence:
         lo, hi = self.gpis.bounds
         return points[np.all((points > lo) & (points < hi), axis=1)]
 
-    def _add_values(self, points: np.ndarray) -> None:
-        values = np.full(len(points), self.free_space_value)
-        self.gpis.add_values(points, values, noise=self.free_space_noise)
+    def _add_values(self, points: np.ndarray, value: float, noise: float) -> None:
+        if not len(points):
+            return
+        if self.gpis.n_contacts == 0:
+            self._pending.append((points, value, noise))
+            return
+        self.gpis.add_values(points, np.full(len(points), value), noise=noise)

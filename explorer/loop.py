@@ -116,6 +116,14 @@ class LoopConfig:
         pad width: the pad passed there, so the surface is at least that far).
     free_space_noise : float
         Standard deviation of those values.
+    side_press_value, side_press_noise : float, float or None
+        Implicit-function value, and its standard deviation, given to the pad-face centre of a
+        press on the pad's side (``no_normal``; ``TouchOutcome.side_m``): the surface it met lies
+        between the face centre and the pad's corners, 0 to 12.7 mm away (18 mm square pad), so
+        the centre is outside the surface by about half that (a uniform spread: 6.4 mm, standard
+        deviation 3.7 mm). It tells the GPIS that the surface is near where it cannot measure a
+        normal (a rim or an edge narrower than the pad), so the variance strategy stops aiming
+        there. None: such presses add nothing (the loop before issue 11's side presses counted).
     max_unreachable_in_a_row : int
         Give up after this many steps without any reachable touch.
     realign_angle_rad : float
@@ -156,6 +164,8 @@ class LoopConfig:
     proposal_rounds: int = 3
     free_space_value: float = -0.009
     free_space_noise: float = 0.005
+    side_press_value: float = -0.0065
+    side_press_noise: float | None = 0.004
     max_unreachable_in_a_row: int = 5
     realign_angle_rad: float = np.radians(15.0)
     max_realign_fraction: float = 0.1
@@ -237,7 +247,8 @@ class ExplorationLoop:
         self.recorder = recorder or Recorder()
         self.detector = detector or PressureContactDetector()
         self.contact_pipeline = ContactPipeline(rig.kinematics, rig.pad, settling, doubt=config.doubt_rule())
-        self.evidence = SurfaceEvidence(gpis, config.free_space_value, config.free_space_noise)
+        self.evidence = SurfaceEvidence(gpis, config.free_space_value, config.free_space_noise,
+                                        config.side_press_value, config.side_press_noise)
         self.state = ExplorationState(rig.prior, motion=MotionTimeEstimator(planner, rig.positioner))
         self.records: list[TouchOutcome] = []
         self.times = PhaseTimes()
@@ -336,6 +347,8 @@ class ExplorationLoop:
                 self.evidence.add_contact(record.position_m, record.normal, self._normal_noise(record))
             elif record.kind == "miss" and record.free_space_m is not None:
                 self.evidence.add_free_space(record.free_space_m)
+            elif record.side_m is not None:
+                self.evidence.add_side_press(record.side_m)
         if records and records[-1].kind == "realign":
             last = records[-1]
             self._follow_up = Touch(last.position_m, -last.normal, strategy="realign",
@@ -392,6 +405,10 @@ class ExplorationLoop:
             swept = self._swept(plan, approach.q)
             record.free_space_m = self.evidence.inside_bounds(self.positioner.to_object(swept))
             self._add_free_space(record.free_space_m)
+        elif record.side_m is not None:
+            t0 = time.perf_counter()
+            self.evidence.add_side_press(record.side_m)
+            self.times.gpis_s += time.perf_counter() - t0
         return record
 
     def _transfer(self, q: np.ndarray) -> bool:
@@ -519,6 +536,7 @@ class ExplorationLoop:
         except NoContactMeasured as err:
             self.recorder.event("no_normal", self.robot.time_s(), message=str(err))
             record.kind = "no_normal"
+            record.side_m = self.positioner.to_object(self.kin.forward_kinematics(q).position_m[None])[0]
             return record
         record.kind = "contact"
         record.contact = measured.world

@@ -88,6 +88,8 @@ class RunRecorder(Recorder):
             fields["quality"] = quality_fields(record.quality)
         if record.free_space_m is not None:
             fields["free_space_m"] = np.asarray(record.free_space_m).tolist()
+        if record.side_m is not None:
+            fields["side_m"] = np.asarray(record.side_m).tolist()
         self.session.write_event(kind, record.t_s + self.time_offset_s, **fields)
         self._saw(record.t_s)
         if record.kind == "contact":

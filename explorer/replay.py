@@ -89,6 +89,10 @@ class ReplaySettings:
     segment_gap_s : float or None
         Joint-state gap that separates two presses, seconds, for sessions without ``press_t_s``;
         None: ``GAP_IN_SPACINGS`` x the median spacing of the joint states.
+    side_presses : bool or None
+        Give the GPIS a value row at the pad-face centre of each press on the pad's side
+        (``LoopConfig.side_press_value`` / ``side_press_noise``, the recorded ones or else the
+        defaults); None: as recorded (sessions recorded before these rows: none).
     figures : bool
         Write the PNG figures.
     """
@@ -101,6 +105,7 @@ class ReplaySettings:
     use_normals: bool | None = None
     mesh_resolution: int | None = None
     segment_gap_s: float | None = None
+    side_presses: bool | None = None
     figures: bool = True
 
     def __post_init__(self):
@@ -284,6 +289,8 @@ class SessionReplay:
         self.legacy_contacts = not self.teleop and "max_realign_fraction" not in recorded_loop
         if "side_contact_force_n" not in recorded_loop:  # recorded before the side test
             self.loop_config = replace(self.loop_config, side_contact_force_n=0.0)
+        if "side_press_noise" not in recorded_loop:  # side presses added nothing to the GPIS then
+            self.loop_config = replace(self.loop_config, side_press_noise=None)
         doubt = (DoubtRule() if self.teleop else DoubtRule(-np.inf) if self.legacy_contacts
                  else self.loop_config.doubt_rule())
         self.pipeline = ContactPipeline(self.kinematics, self.pad, self.settling,
@@ -447,14 +454,15 @@ class SessionReplay:
 
     def _measure(self, touch: TouchOutcome, rows: range, span: PressSpan) -> None:
         """Contact from readings ``rows`` and the encoders at ``span.last`` (the loop's pipeline);
-        kind ``contact`` or ``no_normal``."""
+        kind ``contact`` or ``no_normal`` (with the pad's place, ``side_m``)."""
         readings = [self.readings[i] for i in rows]
         frame = ObjectFrame.of_stand(self.stand_centre_m, touch.stand_yaw_rad, touch.stand_tilt_rad)
+        q = self.joint_states.q[span.last].copy()
         try:
-            measured = self.pipeline.measure(readings, touch.baseline_pa, self.joint_states.q[span.last].copy(),
-                                             frame, touch.approach_dir)
+            measured = self.pipeline.measure(readings, touch.baseline_pa, q, frame, touch.approach_dir)
         except NoContactMeasured:
             touch.kind = "no_normal"
+            touch.side_m = frame.to_object(self.pipeline.kinematics.forward_kinematics(q).position_m[None])[0]
             return
         touch.contact = measured.world
         touch.position_m = measured.position_m
@@ -471,7 +479,10 @@ class SessionReplay:
                    if v is not None}
         gpis = GPIS(kernel=settings.kernel, use_normals=use_normals,
                     bounds=None if self.prior is None else self.prior.bounds(), **options)
-        evidence = SurfaceEvidence(gpis, self.loop_config.free_space_value, self.loop_config.free_space_noise)
+        cfg = self.loop_config
+        side_noise = {None: cfg.side_press_noise, False: None,
+                      True: cfg.side_press_noise or LoopConfig.side_press_noise}[settings.side_presses]
+        evidence = SurfaceEvidence(gpis, cfg.free_space_value, cfg.free_space_noise, cfg.side_press_value, side_noise)
         for touch in touches:
             if touch.kind == "contact":
                 try:
@@ -485,6 +496,8 @@ class SessionReplay:
                 if touch.free_space_m is None:
                     touch.free_space_m = evidence.inside_bounds(self._swept_line(touch))
                 evidence.add_free_space(touch.free_space_m)
+            elif touch.kind == "no_normal" and touch.side_m is not None:
+                evidence.add_side_press(touch.side_m)
         return gpis
 
     def _max_realigns(self) -> int:

@@ -120,6 +120,9 @@ class TouchOutcome:
     repress_t_s : float or None
         A doubtful contact was pressed on from this time (``LoopConfig.repress_force_n``): it is
         measured from the press's readings after it.
+    side_m : (3,) float or None
+        A press on the pad's side (kind ``no_normal``): the pad-face centre at its end, object
+        frame, metres. The surface met lies within about the pad's half diagonal of it.
     """
 
     index: int
@@ -138,6 +141,7 @@ class TouchOutcome:
     baseline_pa: float | None = None
     quality: object | None = None
     repress_t_s: float | None = None
+    side_m: np.ndarray | None = None
 
     def passed_points(self, margin_m: float, spacing_m: float = 0.01) -> np.ndarray:
         """(k, 3) points of the approach line from the target on that the pad went through before it

@@ -31,6 +31,9 @@ def main(argv: list[str] | None = None) -> None:
                         help="contact start threshold, Pa above baseline")
     parser.add_argument("--end-threshold-pa", type=float_above(0.0), help="contact end threshold, Pa above baseline")
     parser.add_argument("--resolution", type=int_at_least(8), help="mesh grid samples along the longest side")
+    parser.add_argument("--side-presses", choices=("on", "off"),
+                        help="a GPIS value row where the pad met the surface with its side (no normal); "
+                             "default: as recorded")
     add_rerun_argument(parser)
     args = parser.parse_args(argv)
     if not args.session.is_dir():
@@ -60,7 +63,8 @@ def main(argv: list[str] | None = None) -> None:
         settings = ReplaySettings(
             start_threshold_pa=args.start_threshold_pa, end_threshold_pa=args.end_threshold_pa,
             kernel=args.kernel, noise=args.noise, normal_noise=args.normal_noise,
-            use_normals=False if args.no_normals else None, mesh_resolution=args.resolution)
+            use_normals=False if args.no_normals else None, mesh_resolution=args.resolution,
+            side_presses=None if args.side_presses is None else args.side_presses == "on")
         result = replay(args.session, settings, args.out)
     except (ValueError, FileNotFoundError) as err:  # a bad setting, or a session that cannot be replayed
         parser.error(str(err))

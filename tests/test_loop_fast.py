@@ -168,3 +168,41 @@ def test_a_surface_at_the_very_end_of_the_line_is_still_pressed():
     with pytest.raises(ValueError, match="press_reserve_m"):
         ExplorationLoop(rig, FakePlanner(rig.positioner, config=too_short), ScriptedStrategy([at_end]),
                         GPIS(bounds=rig.prior.bounds()), loop_config)
+
+
+def test_a_press_on_the_pads_side_tells_the_gpis_where_the_pad_was_and_a_resume_keeps_it(tmp_path):
+    """A press that never reaches the side-press force (here set out of reach) gives no normal; the
+    pad-face centre is kept (``side_m``: in the recording, after a resume) and becomes one value row
+    of the GPIS, held back until the first contact."""
+    from explorer.resume import load_recorded_run
+
+    world, rig = sphere_rig(RADIUS_M)
+    config = LoopConfig(touches=2, proposal_rounds=1, repress_force_n=0.0, side_contact_force_n=100.0,
+                        side_contact_tilt_rad=np.pi)
+    recorder = RunRecorder(tmp_path, dict(rig.description, seed=0, configuration={}))
+    touches = scripted_touches()[:2]
+    loop = ExplorationLoop(rig, FakePlanner(rig.positioner), ScriptedStrategy(touches), GPIS(bounds=rig.prior.bounds()),
+                           config, recorder)
+    records = loop.run()
+    recorder.close()
+    assert [r.kind for r in records] == ["no_normal", "no_normal"]
+    assert loop.gpis.n_rows == 0
+    for record, touch in zip(records, touches):
+        # the pad pressed into the sphere at the target: its centre lies on the target's ray, at
+        # most the press depth inside the surface
+        direction = record.side_m / np.linalg.norm(record.side_m)
+        np.testing.assert_allclose(direction, touch.target_m / RADIUS_M, atol=1e-9)
+        assert RADIUS_M - config.press_depth_m - 1e-9 <= np.linalg.norm(record.side_m) <= RADIUS_M
+    recorded = load_recorded_run(tmp_path).touches
+    np.testing.assert_array_equal([r.side_m for r in recorded], [r.side_m for r in records])
+    _, fresh_rig = sphere_rig(RADIUS_M)
+    fresh = ExplorationLoop(fresh_rig, FakePlanner(fresh_rig.positioner), ScriptedStrategy([]),
+                            GPIS(bounds=fresh_rig.prior.bounds()), config)
+    fresh.restore(recorded)
+    top = np.array([0.0, 0.0, RADIUS_M])
+    for evidence in (loop.evidence, fresh.evidence):   # the first contact brings in the side rows
+        evidence.add_contact(top, np.array([0.0, 0.0, 1.0]))
+        assert evidence.gpis.n_rows == 4 + len(records)
+    side = np.array([r.side_m for r in records])
+    np.testing.assert_allclose(fresh.gpis.mean(side), loop.gpis.mean(side), rtol=0, atol=1e-12)
+    assert np.all(np.abs(loop.gpis.mean(side) - config.side_press_value) < config.side_press_noise)

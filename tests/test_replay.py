@@ -159,3 +159,39 @@ def test_a_difference_from_the_recording_is_a_note(session):
     result = session.run(ReplaySettings(start_threshold_pa=float(pressure.max() - pressure.min()) + 1.0,
                                         end_threshold_pa=1.0, figures=False))
     assert sum("recorded contact, replayed miss" in note for note in result.notes) == result.metrics["recorded_contacts"]
+
+
+def test_a_press_replayed_as_one_on_the_pads_side_keeps_where_the_pad_was(sphere_run):
+    """With a side-press force out of reach every press is one on the pad's side: replay keeps the
+    pad-face centre (encoders' forward kinematics, object frame), within the spring's tilt of the
+    pad the loop measured from the IMU."""
+    from explorer.contact import DoubtRule, ObjectFrame
+
+    replaying = SessionReplay(sphere_run.out_dir / "session")
+    replaying.pipeline.doubt = DoubtRule(side_force_n=100.0, side_tilt_rad=np.pi)
+    touches = replaying.run(ReplaySettings(figures=False)).touches
+    originals = {r.index: r for r in sphere_run.records if r.kind == "contact"}
+    sided = [t for t in touches if t.index in originals]
+    assert sided and all(t.kind == "no_normal" for t in sided)
+    for touch in sided:
+        original = originals[touch.index]
+        frame = ObjectFrame.of_stand(replaying.stand_centre_m, original.stand_yaw_rad, original.stand_tilt_rad)
+        pad = frame.to_object(original.contact.position_m[None])[0]
+        assert np.linalg.norm(touch.side_m - pad) < 0.005
+
+
+def test_side_presses_give_the_replayed_gpis_one_value_row_each_when_asked(sphere_run):
+    """The presses whose peak force lies below the run's median count as presses on the pad's side:
+    ``side_presses`` on adds one GPIS row per such press, off none, and the contacts stay the same."""
+    from explorer.contact import DoubtRule
+
+    peaks = [r.quality.peak_force_n for r in sphere_run.records if r.kind == "contact"]
+    replaying = SessionReplay(sphere_run.out_dir / "session")
+    replaying.pipeline.doubt = DoubtRule(side_force_n=float(np.median(peaks)), side_tilt_rad=np.pi)
+    on = replaying.run(ReplaySettings(figures=False, side_presses=True))
+    off = replaying.run(ReplaySettings(figures=False, side_presses=False))
+    sides = sum(t.kind == "no_normal" for t in on.touches)
+    assert sides >= 1 and len(on.contacts) >= 1
+    assert [t.index for t in on.contacts] == [t.index for t in off.contacts]
+    assert off.gpis.n_rows == 4 * len(off.contacts)
+    assert on.gpis.n_rows == off.gpis.n_rows + sides
