@@ -359,6 +359,11 @@ class ContactPipeline:
                                     f"{np.degrees(load.tilt_rad):.1f} deg: the pad's side or corner, not its face")
         return MeasuredContact(contact, p_obj[0], normal, quality)
 
+    def pad_centre(self, q: np.ndarray, frame: ObjectFrame) -> np.ndarray:
+        """(3,) pad-face centre from the encoders' forward kinematics, object frame, metres: where a
+        press without a measured contact (on the pad's side) was made."""
+        return frame.to_object(self.kinematics.forward_kinematics(q).position_m[None])[0]
+
     def force_estimate_n(self, pressure_rise_pa: float) -> float:
         """Force for a pressure rise over the baseline (clipped into the model's range), newtons."""
         return self.pad.force_model.force_estimate_n(pressure_rise_pa)

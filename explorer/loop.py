@@ -406,9 +406,7 @@ class ExplorationLoop:
             record.free_space_m = self.evidence.inside_bounds(self.positioner.to_object(swept))
             self._add_free_space(record.free_space_m)
         elif record.side_m is not None:
-            t0 = time.perf_counter()
-            self.evidence.add_side_press(record.side_m)
-            self.times.gpis_s += time.perf_counter() - t0
+            self._add_side_press(record.side_m)
         return record
 
     def _transfer(self, q: np.ndarray) -> bool:
@@ -536,7 +534,7 @@ class ExplorationLoop:
         except NoContactMeasured as err:
             self.recorder.event("no_normal", self.robot.time_s(), message=str(err))
             record.kind = "no_normal"
-            record.side_m = self.positioner.to_object(self.kin.forward_kinematics(q).position_m[None])[0]
+            record.side_m = self.contact_pipeline.pad_centre(q, ObjectFrame.of_positioner(self.positioner))
             return record
         record.kind = "contact"
         record.contact = measured.world
@@ -631,6 +629,12 @@ class ExplorationLoop:
         """The swept points (object frame) are outside the object."""
         t0 = time.perf_counter()
         self.evidence.add_free_space(points)
+        self.times.gpis_s += time.perf_counter() - t0
+
+    def _add_side_press(self, pad_m: np.ndarray) -> None:
+        """A press on the pad's side was made with the pad-face centre at ``pad_m`` (object frame)."""
+        t0 = time.perf_counter()
+        self.evidence.add_side_press(pad_m)
         self.times.gpis_s += time.perf_counter() - t0
 
     def _joint_speed(self, plan: ApproachPlan) -> float:

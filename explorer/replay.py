@@ -462,7 +462,7 @@ class SessionReplay:
             measured = self.pipeline.measure(readings, touch.baseline_pa, q, frame, touch.approach_dir)
         except NoContactMeasured:
             touch.kind = "no_normal"
-            touch.side_m = frame.to_object(self.pipeline.kinematics.forward_kinematics(q).position_m[None])[0]
+            touch.side_m = self.pipeline.pad_centre(q, frame)
             return
         touch.contact = measured.world
         touch.position_m = measured.position_m
@@ -480,8 +480,9 @@ class SessionReplay:
         gpis = GPIS(kernel=settings.kernel, use_normals=use_normals,
                     bounds=None if self.prior is None else self.prior.bounds(), **options)
         cfg = self.loop_config
-        side_noise = {None: cfg.side_press_noise, False: None,
-                      True: cfg.side_press_noise or LoopConfig.side_press_noise}[settings.side_presses]
+        side_noise = cfg.side_press_noise  # as recorded
+        if settings.side_presses is not None:
+            side_noise = (cfg.side_press_noise or LoopConfig.side_press_noise) if settings.side_presses else None
         evidence = SurfaceEvidence(gpis, cfg.free_space_value, cfg.free_space_noise, cfg.side_press_value, side_noise)
         for touch in touches:
             if touch.kind == "contact":
