@@ -407,15 +407,11 @@ class SessionReplay:
         first = int(np.searchsorted(t, span.t_start_s, side="right"))
         stop = int(np.searchsorted(t, span.t_end_s, side="right"))
         detector = PressureContactDetector(detector_config)
-        start = end = None
+        start = None
         for i in range(first, stop):
             event_i = detector.update(self.readings[i])
-            if event_i is None:
-                continue
-            if event_i.kind == "start" and start is None:
+            if event_i is not None and event_i.kind == "start":
                 start, touch.baseline_pa = i, event_i.baseline_pa
-            elif event_i.kind == "end" and start is not None:
-                end = i  # the pad came off: later readings are not this contact's
                 break
         if start is None:
             return touch
@@ -423,7 +419,9 @@ class SessionReplay:
         if repress is not None:  # the loop pressed on and measured the second press
             touch.repress_t_s = float(repress)
             start = max(start, int(np.searchsorted(t, float(repress), side="right")))
-        self._measure(touch, range(start, stop if end is None else end), span)
+        # Every reading from the start to the press's end, as the loop keeps them: also those after
+        # a dip below the detector's end threshold (the pad slipping while it settles).
+        self._measure(touch, range(start, stop), span)
         cfg = self.loop_config
         if (touch.kind == "contact" and touch.strategy != "realign"
                 and wants_realign(None if self.legacy_contacts else touch.quality, touch.normal,

@@ -195,3 +195,37 @@ def test_side_presses_give_the_replayed_gpis_one_value_row_each_when_asked(spher
     assert [t.index for t in on.contacts] == [t.index for t in off.contacts]
     assert off.gpis.n_rows == 4 * len(off.contacts)
     assert on.gpis.n_rows == off.gpis.n_rows + sides
+
+
+def test_a_dip_below_the_end_threshold_mid_press_does_not_cut_the_contact(sphere_run, recorded_replay, tmp_path):
+    """The loop measures a contact from every reading between the press's start and its end, also
+    those after the pressure dipped below the detector's end threshold (the pad slipping while it
+    settles); replay must keep them too, or it measures a different contact than the loop did."""
+    from sensor.contact_detection import PressureContactDetector
+
+    def kinds_in(readings, span):
+        detector = PressureContactDetector()
+        events = [(i, detector.update(readings[i])) for i in span]
+        return [(i, e.kind) for i, e in events if e is not None]
+
+    copy = tmp_path / "session"
+    shutil.copytree(sphere_run.out_dir / "session", copy)
+    record = next(r for r in sphere_run.records if r.kind == "contact")
+    t = SessionReplay(copy).readings.t_s
+    span = np.flatnonzero((t > record.press_t_s[0]) & (t <= record.press_t_s[1]))
+    started = kinds_in(SessionReplay(copy).readings, span)[0][0]
+    dip = range(started + 5, started + 9)  # 40 ms back at the pressure before the press
+    assert dip[-1] < (started + span[-1]) // 2  # early in the contact: the settled window comes later
+    lines = (copy / "readings.csv").read_text().splitlines()
+    column = lines[0].split(",").index("pressure_pa")
+    rows = [line.split(",") for line in lines[1:]]
+    for i in dip:
+        rows[i][column] = rows[span[0]][column]
+    (copy / "readings.csv").write_text("\n".join([lines[0]] + [",".join(row) for row in rows]) + "\n")
+    replaying = SessionReplay(copy)
+    assert [kind for _, kind in kinds_in(replaying.readings, span)][:3] == ["start", "end", "start"]
+
+    replayed = replaying.run(ReplaySettings(figures=False))
+    assert not replayed.notes
+    np.testing.assert_allclose(replayed.points_m, recorded_replay.points_m, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(replayed.normals, recorded_replay.normals, rtol=0, atol=1e-9)
