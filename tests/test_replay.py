@@ -197,7 +197,8 @@ def test_side_presses_give_the_replayed_gpis_one_value_row_each_when_asked(spher
     assert on.gpis.n_rows == off.gpis.n_rows + sides
 
 
-def test_a_dip_below_the_end_threshold_mid_press_does_not_cut_the_contact(sphere_run, recorded_replay, tmp_path):
+def test_a_dip_below_the_end_threshold_mid_press_does_not_cut_the_contact(sphere_run, session, recorded_replay,
+                                                                          tmp_path):
     """The loop measures a contact from every reading between the press's start and its end, also
     those after the pressure dipped below the detector's end threshold (the pad slipping while it
     settles); replay must keep them too, or it measures a different contact than the loop did."""
@@ -211,9 +212,9 @@ def test_a_dip_below_the_end_threshold_mid_press_does_not_cut_the_contact(sphere
     copy = tmp_path / "session"
     shutil.copytree(sphere_run.out_dir / "session", copy)
     record = next(r for r in sphere_run.records if r.kind == "contact")
-    t = SessionReplay(copy).readings.t_s
+    t = session.readings.t_s
     span = np.flatnonzero((t > record.press_t_s[0]) & (t <= record.press_t_s[1]))
-    started = kinds_in(SessionReplay(copy).readings, span)[0][0]
+    started = kinds_in(session.readings, span)[0][0]
     dip = range(started + 5, started + 9)  # 40 ms back at the pressure before the press
     assert dip[-1] < (started + span[-1]) // 2  # early in the contact: the settled window comes later
     lines = (copy / "readings.csv").read_text().splitlines()
