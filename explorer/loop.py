@@ -24,6 +24,7 @@ pad calibration) and a :class:`LoopConfig`.
 from __future__ import annotations
 
 import time
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -252,6 +253,11 @@ class ExplorationLoop:
         self.state = ExplorationState(rig.prior, motion=MotionTimeEstimator(planner, rig.positioner))
         self.records: list[TouchOutcome] = []
         self.times = PhaseTimes()
+        #: Moves the arm's protective stop (or the controller) ended, by phase (``transfer``,
+        #: ``retract``, ``rest``, ``rest_forced``) and by what the arm met (``on``: body name, or
+        #: ``unknown`` when the robot does not say). See :meth:`blocked_moves_summary`.
+        self.blocked_moves: Counter = Counter()
+        self.blocked_on: Counter = Counter()
         self._contact_readings: list[Reading] = []
         self._baseline_pa: float | None = None
         self._press_start_s = -np.inf
@@ -409,6 +415,21 @@ class ExplorationLoop:
             self._add_side_press(record.side_m)
         return record
 
+    def blocked_moves_summary(self) -> dict:
+        """``{phase: count, ..., "on": {body: count}}`` of the moves that were blocked (for
+        ``metrics.json``): on a concave object the hand meeting its rim shows up here as
+        ``retract`` stops on the object."""
+        return {**dict(self.blocked_moves), "on": dict(self.blocked_on)}
+
+    def _blocked(self, phase: str, err: MoveNotReachedError, message: str | None = None) -> None:
+        """Record a blocked move (event ``<phase>_blocked``, or ``rest_forced``) and count it."""
+        kind = phase if phase == "rest_forced" else f"{phase}_blocked"
+        body = getattr(err, "body", None)
+        self.recorder.event(kind, self.robot.time_s(), message=str(err) if message is None else message,
+                            body=body, link=getattr(err, "link", None))
+        self.blocked_moves[phase] += 1
+        self.blocked_on[body or "unknown"] += 1
+
     def _transfer(self, q: np.ndarray) -> bool:
         """Free move to the standoff ``q``: directly (around the prior box where the straight joint
         path would not clear it, :meth:`_free_route`); when that is blocked, to a point on the
@@ -447,7 +468,7 @@ class ExplorationLoop:
                     self._free_route(q)
                 return True
             except MoveNotReachedError as err:
-                self.recorder.event("transfer_blocked", self.robot.time_s(), message=f"{attempt}: {err}")
+                self._blocked("transfer", err, f"{attempt}: {err}")
         self._to_rest()
         return False
 
@@ -486,14 +507,14 @@ class ExplorationLoop:
         try:
             self._free_route(rest)
         except MoveNotReachedError as err:
-            self.recorder.event("rest_blocked", self.robot.time_s(), message=str(err))
+            self._blocked("rest", err)
             retreat = self.planner.retreat_path(self.robot.joint_positions())
             if len(retreat):
                 self.robot.guarded_move(retreat, stop=lambda: False, speed_rad_s=RECOVERY_SPEED_RAD_S)
             try:
                 self.robot.move_joints(rest, RECOVERY_SPEED_RAD_S)
             except MoveNotReachedError as again:
-                self.recorder.event("rest_forced", self.robot.time_s(), message=str(again))
+                self._blocked("rest_forced", again)
                 self.robot.guarded_move(np.asarray(rest, float)[None], stop=lambda: False,
                                         speed_rad_s=RECOVERY_SPEED_RAD_S)
                 self.robot.move_joints(rest, RECOVERY_SPEED_RAD_S)
@@ -518,7 +539,7 @@ class ExplorationLoop:
         try:
             self.robot.move_joints(plan.standoff_q, speed)
         except MoveNotReachedError as err:
-            self.recorder.event("retract_blocked", self.robot.time_s(), message=str(err))
+            self._blocked("retract", err)
             self.robot.guarded_move(plan.path_q[::-1], stop=lambda: False, speed_rad_s=0.2 * speed)
             self._to_rest()
 

@@ -8,7 +8,9 @@ Writes to the output directory, as the run goes:
 and at the end (also after an interruption, from what was recorded):
 
 * ``reconstruction.ply`` the GPIS mean surface, object frame;
-* ``metrics.json``       errors against the ground truth, touches, misses, coverage, times, and with a
+* ``metrics.json``       errors against the ground truth, touches, misses, blocked moves
+                         (``blocked_moves``: protective stops by phase and by what the arm met),
+                         coverage, times, and with a
                          ground truth ``reach_breakdown`` (:class:`explorer.coverage.ReachBreakdown`:
                          surface fractions where the pad does not fit, the arm cannot reach, the stand
                          hides it, reachable but untouched, touched), ``reachable_fraction`` and
@@ -252,10 +254,19 @@ def _carry_over(metrics: dict, earlier: dict, curve: list) -> list:
     for phase, seconds in metrics["phase_times_s"].items():
         phases[phase] = float(phases.get(phase, 0.0)) + seconds
     metrics["phase_times_s"] = phases
+    metrics["blocked_moves"] = _summed_counts(earlier.get("blocked_moves") or {}, metrics["blocked_moves"])
     metrics["parts"] = int(earlier.get("parts", 1)) + 1
     first_new = curve[0][0] if curve else np.inf
     kept = [point for point in earlier.get("error_curve") or [] if point.get("touches", np.inf) < first_new]
     return kept + [dict(touches=n, position_rmse_mm=p, normal_rmse_deg=a) for n, p, a in curve]
+
+
+def _summed_counts(a: dict, b: dict) -> dict:
+    """Nested count dicts added key by key (``{"retract": 2, "on": {"table": 1}}``)."""
+    out = dict(a)
+    for key, value in b.items():
+        out[key] = _summed_counts(out.get(key) or {}, value) if isinstance(value, dict) else int(out.get(key, 0)) + value
+    return out
 
 
 def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_time_s, wall_s, eval_s,
@@ -273,6 +284,7 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
         touches=len(records), contacts=kinds.count("contact"), misses=kinds.count("miss"),
         unreachable=kinds.count("unreachable"), no_normal=kinds.count("no_normal"),
         realign=kinds.count("realign"), blocked=kinds.count("blocked"),
+        blocked_moves=loop.blocked_moves_summary(),
         doubtful=sum(bool(getattr(r.quality, "doubtful", False)) for r in records if r.kind == "contact"),
         repressed=sum(r.repress_t_s is not None for r in records),
         wall_time_s=wall_s, simulated_time_s=robot_time_s,

@@ -9,7 +9,21 @@ import numpy as np
 
 
 class MoveNotReachedError(RuntimeError):
-    """A move ended away from its target (blocked by a contact, or too slow to settle)."""
+    """A move ended away from its target (blocked by a contact, or too slow to settle).
+
+    Attributes
+    ----------
+    body : str or None
+        What the arm met, when the robot knows (the simulator names the body, e.g. ``"table"`` or
+        the object's name); None otherwise (a real arm's controller only reports the stop).
+    link : str or None
+        The arm's link that met it, when known.
+    """
+
+    def __init__(self, message: str, *, body: str | None = None, link: str | None = None):
+        super().__init__(message)
+        self.body = body
+        self.link = link
 
 
 @dataclass(frozen=True)

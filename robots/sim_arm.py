@@ -373,7 +373,7 @@ class SimArm(Robot):
         if result.stopped:
             link, other, force = collision[0]
             raise MoveNotReachedError(f"protective stop: {link} pressed {force:.0f} N on {other}, "
-                                      f"{np.degrees(error):.2f} deg from the target")
+                                      f"{np.degrees(error):.2f} deg from the target", body=other, link=link)
         if error > REACHED_TOLERANCE_RAD:
             raise MoveNotReachedError(
                 f"arm stopped {np.degrees(error):.2f} deg away from its target (blocked by a contact?)"

@@ -85,6 +85,10 @@ def test_a_transfer_blocked_on_the_table_ends_at_rest_or_its_target_not_wedged()
         goal = standoff if reached else rest
         assert np.max(np.abs(q - goal)) < 2.5e-3
         assert reached or events.kinds.count("transfer_blocked") == 2
+        # The simulator names what the hand met; metrics.json counts it.
+        assert loop.blocked_moves["transfer"] == events.kinds.count("transfer_blocked")
+        assert sum(loop.blocked_on.values()) == sum(loop.blocked_moves.values())
+        assert set(loop.blocked_on) <= {"table", scene.object_model.name}, loop.blocked_on
         table = [c for c in scene.arm.contacts() if c.other == "table" and c.normal_force_n > 1.0]
         assert not table, f"still pressed on the table: {table}"
 
@@ -129,6 +133,7 @@ def test_a_blocked_move_to_rest_backs_the_pad_out_along_its_axis_before_trying_a
     world.pad_m = near.copy()
     loop._to_rest()
     assert events.kinds == ["rest_blocked"]
+    assert loop.blocked_moves_summary() == {"rest": 1, "on": {"unknown": 1}}  # the fake does not say what it met
     np.testing.assert_allclose(robot.joint_positions(), planner.rest_q)
     retreats = [c for c in robot.calls if c[0] == "guarded" and len(c[1]) > 1]
     assert len(retreats) == 1, "one straight retreat"

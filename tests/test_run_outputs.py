@@ -27,6 +27,9 @@ def test_a_resumed_run_keeps_the_earlier_error_curve_and_adds_the_times(four_tou
     shutil.copytree(four_touches, out)
     before = json.loads((out / "metrics.json").read_text())
     assert before["error_curve"], "premise: the sphere gives 4 contacts in 4 touches"
+    # The earlier part's blocked moves are counted on, whatever this part adds.
+    before["blocked_moves"] = {"retract": 2, "on": {"table": 2}}
+    (out / "metrics.json").write_text(json.dumps(before))
 
     after = explore(RunSettings(touches=6, eval_every=1, **SPHERE), out, resume=True).metrics
     assert json.loads((out / "metrics.json").read_text())["touches"] == after["touches"] == 6
@@ -39,6 +42,7 @@ def test_a_resumed_run_keeps_the_earlier_error_curve_and_adds_the_times(four_tou
     for phase, seconds in before["phase_times_s"].items():
         assert after["phase_times_s"][phase] >= seconds, phase
     assert after["parts"] == 2
+    assert after["blocked_moves"]["retract"] >= 2 and after["blocked_moves"]["on"]["table"] >= 2
 
 
 def test_resuming_a_finished_run_loses_nothing(four_touches, tmp_path):
@@ -145,3 +149,13 @@ def test_a_figure_that_fails_halfway_leaves_the_previous_png(tmp_path):
         save_png(broken, path)
     assert path.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["errors.png"]
+
+
+def test_blocked_move_counts_of_two_parts_add_up_key_by_key():
+    from explorer.run import _summed_counts
+
+    earlier = {"retract": 2, "rest": 1, "on": {"table": 1, "generated:bowl/0": 2}}
+    later = {"retract": 1, "transfer": 3, "on": {"generated:bowl/0": 4}}
+    assert _summed_counts(earlier, later) == {"retract": 3, "rest": 1, "transfer": 3,
+                                              "on": {"table": 1, "generated:bowl/0": 6}}
+    assert _summed_counts({}, later) == later
