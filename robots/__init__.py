@@ -21,6 +21,7 @@ _LAZY = {
     "ArmKinematics": "robots.kinematics",
     "LinkPoses": "robots.kinematics",
     "ArmSpheres": "robots.link_spheres",
+    "ArmShapes": "robots.link_shapes",
     "PadIK": "robots.ik",
     "IKOptions": "robots.ik",
     "IKResult": "robots.ik",
