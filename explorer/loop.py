@@ -288,6 +288,7 @@ class ExplorationLoop:
         """One touch: plan, move, press, record, update."""
         self.state.gpis = self.gpis if self.gpis.n_contacts else None
         plan, first_proposals = None, None
+        touched = self._touched_points()
         for _ in range(max(self.config.proposal_rounds, 1)):
             t0 = time.perf_counter()
             proposals = self.strategy.propose(self.state, self.config.candidates)
@@ -298,7 +299,7 @@ class ExplorationLoop:
             t1 = time.perf_counter()
             self.times.selection_s += t1 - t0
             for touch in proposals:
-                plan = self.planner.plan(touch, seed_q=self.robot.joint_positions())
+                plan = self.planner.plan(touch, seed_q=self.robot.joint_positions(), touched_m=touched)
                 if plan is not None:
                     break
                 self.state.unreachable_m.append(touch.target_m)
@@ -414,6 +415,12 @@ class ExplorationLoop:
         elif record.side_m is not None:
             self._add_side_press(record.side_m)
         return record
+
+    def _touched_points(self) -> np.ndarray:
+        """(n, 3) object-frame points the pad has touched: contacts and presses on its side."""
+        points = [r.position_m for r in self.records if r.kind == "contact"]
+        points += [r.side_m for r in self.records if r.kind == "no_normal" and r.side_m is not None]
+        return np.array(points, float).reshape(-1, 3)
 
     def blocked_moves_summary(self) -> dict:
         """``{phase: count, ..., "on": {body: count}}`` of the moves that were blocked (for

@@ -86,6 +86,13 @@ class PlannerConfig:
         Free moves (transfers, the move to rest) keep the arm up to the hand this far outside the
         prior box where the straight joint path would not (:meth:`ApproachPlanner.transfer_path`,
         :mod:`explorer.free_path`); None: straight joint paths only (the loop before this check).
+    hand_clearance_m : float or None
+        A plan whose standoff pose puts the arm, shoulder to hand (its exact collision primitives,
+        :class:`robots.link_shapes.ArmShapes`; not the finger that carries the pad), closer than
+        this to a point the pad has touched is rejected (``touched_m`` of :meth:`ApproachPlanner.plan`):
+        the hand would sit on the object there, every transfer to the standoff would be blocked and
+        the touch lost ("blocked"). Rejected at planning, the loop tries its next proposal instead,
+        at no cost to the budget. Chosen on the tuning split (BENCHMARKS.md); None: no check.
     """
 
     standoff_m: float = 0.03
@@ -103,6 +110,7 @@ class PlannerConfig:
     tilt_azimuths: int = 8
     tilted_to_try: int = 4
     free_move_clearance_m: float | None = 0.02
+    hand_clearance_m: float | None = 0.005
 
 
 @dataclass(frozen=True)
@@ -182,6 +190,7 @@ class ApproachPlanner:
             collision_links = names[1:names.index(kinematics.spec.tool_link) - 1]
         self.collision_links = tuple(collision_links)
         self._free_paths = None  # built on the first transfer_path (reads the URDF's collision shapes)
+        self._hand = None  # built on the first plan with touched points
         self.rest_q = self._retreat_pose() if rest_q is None else np.asarray(rest_q, float)
         self._reach_dirs, self._reachable = self._reachability_map()
 
@@ -216,16 +225,22 @@ class ApproachPlanner:
         return scores
 
     # ------------------------------------------------------------------ planning
-    def plan(self, touch: Touch, seed_q=None, tilted: bool = True) -> ApproachPlan | None:
+    def plan(self, touch: Touch, seed_q=None, tilted: bool = True, touched_m=None) -> ApproachPlan | None:
         """A plan for ``touch``, or None when no stand pose makes it reachable (head-on, or with
-        ``tilted`` along one of the tilted approaches, see :class:`PlannerConfig`)."""
+        ``tilted`` along one of the tilted approaches, see :class:`PlannerConfig`).
+
+        ``touched_m`` : (n, 3) float, object frame, metres, optional
+            Points the pad has touched (contacts, presses on its side): standoffs that put the
+            hand on one are not reachable (``PlannerConfig.hand_clearance_m``).
+        """
         cfg = self.config
+        touched = None if touched_m is None else np.asarray(touched_m, float).reshape(-1, 3)
         seed = self.rest_q if seed_q is None else np.asarray(seed_q, float)
         seed = np.clip(seed, self.kin.lower_rad, self.kin.upper_rad)  # encoders may read past a limit
         for score, pose in self.pose_scores(touch.approach_dir)[:cfg.poses_to_try]:
             if score <= 0.0:
                 break
-            plan = self._plan_at(touch, pose, seed, touch.approach_dir)
+            plan = self._plan_at(touch, pose, seed, touch.approach_dir, touched_m=touched)
             if plan is not None:
                 return plan
         if not tilted:
@@ -238,7 +253,7 @@ class ApproachPlanner:
                 ranked.append((-score, tilt, len(ranked), direction, pose))
         ranked.sort(key=lambda r: r[:3])
         for _, tilt, _, direction, pose in ranked[:cfg.tilted_to_try]:
-            plan = self._plan_at(touch, pose, seed, direction, tilt)
+            plan = self._plan_at(touch, pose, seed, direction, tilt, touched_m=touched)
             if plan is not None:
                 return plan
         return None
@@ -257,7 +272,7 @@ class ApproachPlanner:
         return out
 
     def _plan_at(self, touch: Touch, pose: StandPose, seed: np.ndarray, approach_object: np.ndarray,
-                 tilt_rad: float = 0.0) -> ApproachPlan | None:
+                 tilt_rad: float = 0.0, touched_m: np.ndarray | None = None) -> ApproachPlan | None:
         cfg = self.config
         target_w, approach_w = self.positioner.to_world(touch.target_m[None], np.asarray(approach_object)[None], pose)
         target_w, approach_w = target_w[0], approach_w[0]
@@ -278,7 +293,7 @@ class ApproachPlanner:
         if usable < required:
             return None
         q, points = q[:usable], points[:usable]
-        if self.arm_intrudes(q[0], pose):
+        if self.arm_intrudes(q[0], pose) or self.hand_on_touched(q[0], pose, touched_m):
             return None
         return ApproachPlan(touch, pose, target_w, approach_w, q, points, tilt_rad)
 
@@ -343,6 +358,30 @@ class ApproachPlanner:
             far = np.where(d > 0, (hi - target_m) / d, (lo - target_m) / d)
         far = np.where(np.abs(d) > 1e-12, far, np.inf)
         return float(max(np.min(far), 0.0))
+
+    def hand_on_touched(self, q: np.ndarray, pose: StandPose, touched_m: np.ndarray | None) -> bool:
+        """True when the arm at ``q`` (shoulder to hand, exact primitives) comes within
+        ``hand_clearance_m`` of one of ``touched_m`` ((n, 3) object frame, metres) at ``pose``."""
+        if self.config.hand_clearance_m is None or touched_m is None or not len(touched_m):
+            return False
+        if self._hand is None:
+            self._hand = self._hand_shapes()
+        if self._hand is False:
+            return False
+        points_w = self.positioner.to_world(touched_m, pose=pose)
+        return bool(self._hand.signed_distance_m(q[None], points_w)[0] < self.config.hand_clearance_m)
+
+    def _hand_shapes(self):
+        """The arm's exact primitives from the shoulder to the link before the tool (the finger);
+        False (one warning) when the URDF has other collision shapes: no check then."""
+        from robots.link_shapes import ArmShapes
+
+        names = list(self.kin.link_names)
+        try:
+            return ArmShapes(self.kin, names[1:names.index(self.kin.spec.tool_link)])
+        except ValueError as err:
+            warnings.warn(f"{err}; standoffs are not checked against touched points", stacklevel=3)
+            return False
 
     def arm_points(self, q: np.ndarray, per_segment: int = 5) -> np.ndarray:
         """(k, 3) world points along the arm from the shoulder to the wrist (segments sampled)."""

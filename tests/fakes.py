@@ -175,7 +175,7 @@ class FakePlanner:
         steps = np.arange(1, int(round(distance_m / step_m)) + 1) * step_m
         return q + steps[:, None] * away
 
-    def plan(self, touch: Touch, seed_q=None) -> ApproachPlan | None:
+    def plan(self, touch: Touch, seed_q=None, touched_m=None) -> ApproachPlan | None:
         if self.unreachable(touch.target_m):
             return None
         pose = self.positioner.pose()
