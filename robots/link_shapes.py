@@ -47,26 +47,33 @@ class Primitive:
     origin_m: np.ndarray
 
 
+def collision_elements(urdf_path: Path, link: str):
+    """Yield (geometry element, rotation (3, 3) primitive -> link frame, origin (3,) metres) for every
+    ``<collision>`` of ``link`` in the URDF at ``urdf_path``; ValueError for an unknown link or a
+    collision without a geometry."""
+    root = ElementTree.parse(urdf_path).getroot()
+    element = next((el for el in root.findall("link") if el.get("name") == link), None)
+    if element is None:
+        raise ValueError(f"URDF {urdf_path} has no link {link!r}")
+    for collision in element.findall("collision"):
+        origin = collision.find("origin")
+        xyz = np.array(_floats(None if origin is None else origin.get("xyz"), (0.0, 0.0, 0.0)))
+        rpy = _floats(None if origin is None else origin.get("rpy"), (0.0, 0.0, 0.0))
+        geometry = collision.find("geometry")
+        if geometry is None or not len(geometry):
+            raise ValueError(f"URDF {urdf_path}, link {link!r}: <collision> without a geometry")
+        yield geometry[0], rpy_matrix(rpy), xyz
+
+
 def read_link_primitives(urdf_path: Path, links) -> list[Primitive]:
     """The collision primitives of ``links`` (in that order) of the URDF at ``urdf_path``.
 
     Raises ValueError for an unknown link or a geometry other than box, cylinder or sphere (a mesh:
     give the link primitive collision shapes).
     """
-    root = ElementTree.parse(urdf_path).getroot()
-    by_name = {el.get("name"): el for el in root.findall("link")}
     out = []
     for link in links:
-        if link not in by_name:
-            raise ValueError(f"URDF {urdf_path} has no link {link!r}")
-        for collision in by_name[link].findall("collision"):
-            origin = collision.find("origin")
-            xyz = np.array(_floats(None if origin is None else origin.get("xyz"), (0.0, 0.0, 0.0)))
-            rpy = _floats(None if origin is None else origin.get("rpy"), (0.0, 0.0, 0.0))
-            geometry = collision.find("geometry")
-            if geometry is None or not len(geometry):
-                raise ValueError(f"URDF {urdf_path}, link {link!r}: <collision> without a geometry")
-            shape = geometry[0]
+        for shape, rotation, origin in collision_elements(urdf_path, link):
             if shape.tag == "box":
                 half = 0.5 * np.array([float(v) for v in shape.get("size").split()])
             elif shape.tag == "cylinder":
@@ -76,7 +83,7 @@ def read_link_primitives(urdf_path: Path, links) -> list[Primitive]:
             else:
                 raise ValueError(f"URDF {urdf_path}, link {link!r}: collision geometry <{shape.tag}> is not "
                                  f"one of {', '.join(PRIMITIVE_KINDS)}; give the link primitive collision shapes")
-            out.append(Primitive(link, shape.tag, half, rpy_matrix(rpy), xyz))
+            out.append(Primitive(link, shape.tag, half, rotation, origin))
     return out
 
 
@@ -96,14 +103,8 @@ def primitive_signed_distance_m(kind: str, half_m: np.ndarray, points_m: np.ndar
 
 
 class ArmShapes:
-    """The collision primitives of a chain of links, placed by forward kinematics.
-
-    Parameters
-    ----------
-    kinematics : robots.kinematics.ArmKinematics
-    links : sequence of str
-        Links of ``kinematics.link_names`` to cover.
-    """
+    """The collision primitives of ``links`` (names of ``kinematics.link_names``), placed by the
+    forward kinematics of ``kinematics`` (:class:`robots.kinematics.ArmKinematics`)."""
 
     def __init__(self, kinematics, links):
         self.kinematics = kinematics

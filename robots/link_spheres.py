@@ -16,8 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robots.urdf_check import _floats
-from robots.urdf_model import rpy_matrix
+from robots.link_shapes import collision_elements
 
 
 @dataclass(frozen=True)
@@ -72,22 +71,12 @@ def read_link_spheres(urdf_path: Path, links: tuple[str, ...] | list[str]) -> li
 
     A link without collision shapes gets no spheres (an empty :class:`LinkSpheres`).
     """
-    root = ElementTree.parse(urdf_path).getroot()
-    by_name = {el.get("name"): el for el in root.findall("link")}
     out = []
     for link in links:
-        if link not in by_name:
-            raise ValueError(f"URDF {urdf_path} has no link {link!r}")
         centres, radii = [np.zeros((0, 3))], [np.zeros(0)]
-        for collision in by_name[link].findall("collision"):
-            origin = collision.find("origin")
-            xyz = np.array(_floats(None if origin is None else origin.get("xyz"), (0.0, 0.0, 0.0)))
-            rpy = _floats(None if origin is None else origin.get("rpy"), (0.0, 0.0, 0.0))
-            geometry = collision.find("geometry")
-            if geometry is None or not len(geometry):
-                raise ValueError(f"URDF {urdf_path}, link {link!r}: <collision> without a geometry")
-            c, r = _primitive_spheres(geometry[0], f"URDF {urdf_path}, link {link!r}")
-            centres.append(c @ rpy_matrix(rpy).T + xyz)
+        for geometry, rotation, origin in collision_elements(urdf_path, link):
+            c, r = _primitive_spheres(geometry, f"URDF {urdf_path}, link {link!r}")
+            centres.append(c @ rotation.T + origin)
             radii.append(r)
         out.append(LinkSpheres(link, np.vstack(centres), np.concatenate(radii)))
     return out
