@@ -47,22 +47,27 @@ class Primitive:
     origin_m: np.ndarray
 
 
-def collision_elements(urdf_path: Path, link: str):
-    """Yield (geometry element, rotation (3, 3) primitive -> link frame, origin (3,) metres) for every
-    ``<collision>`` of ``link`` in the URDF at ``urdf_path``; ValueError for an unknown link or a
-    collision without a geometry."""
+def collision_elements(urdf_path: Path, links) -> list[tuple[str, list]]:
+    """For each of ``links`` (in that order), ``(link, [(geometry element, rotation (3, 3) primitive
+    -> link frame, origin (3,) metres), ...])`` of its ``<collision>`` elements in the URDF at
+    ``urdf_path`` (read once); ValueError for an unknown link or a collision without a geometry."""
     root = ElementTree.parse(urdf_path).getroot()
-    element = next((el for el in root.findall("link") if el.get("name") == link), None)
-    if element is None:
-        raise ValueError(f"URDF {urdf_path} has no link {link!r}")
-    for collision in element.findall("collision"):
-        origin = collision.find("origin")
-        xyz = np.array(_floats(None if origin is None else origin.get("xyz"), (0.0, 0.0, 0.0)))
-        rpy = _floats(None if origin is None else origin.get("rpy"), (0.0, 0.0, 0.0))
-        geometry = collision.find("geometry")
-        if geometry is None or not len(geometry):
-            raise ValueError(f"URDF {urdf_path}, link {link!r}: <collision> without a geometry")
-        yield geometry[0], rpy_matrix(rpy), xyz
+    by_name = {el.get("name"): el for el in root.findall("link")}
+    out = []
+    for link in links:
+        if link not in by_name:
+            raise ValueError(f"URDF {urdf_path} has no link {link!r}")
+        shapes = []
+        for collision in by_name[link].findall("collision"):
+            origin = collision.find("origin")
+            xyz = np.array(_floats(None if origin is None else origin.get("xyz"), (0.0, 0.0, 0.0)))
+            rpy = _floats(None if origin is None else origin.get("rpy"), (0.0, 0.0, 0.0))
+            geometry = collision.find("geometry")
+            if geometry is None or not len(geometry):
+                raise ValueError(f"URDF {urdf_path}, link {link!r}: <collision> without a geometry")
+            shapes.append((geometry[0], rpy_matrix(rpy), xyz))
+        out.append((link, shapes))
+    return out
 
 
 def read_link_primitives(urdf_path: Path, links) -> list[Primitive]:
@@ -72,8 +77,8 @@ def read_link_primitives(urdf_path: Path, links) -> list[Primitive]:
     give the link primitive collision shapes).
     """
     out = []
-    for link in links:
-        for shape, rotation, origin in collision_elements(urdf_path, link):
+    for link, shapes in collision_elements(urdf_path, links):
+        for shape, rotation, origin in shapes:
             if shape.tag == "box":
                 half = 0.5 * np.array([float(v) for v in shape.get("size").split()])
             elif shape.tag == "cylinder":

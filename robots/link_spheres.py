@@ -72,9 +72,9 @@ def read_link_spheres(urdf_path: Path, links: tuple[str, ...] | list[str]) -> li
     A link without collision shapes gets no spheres (an empty :class:`LinkSpheres`).
     """
     out = []
-    for link in links:
+    for link, shapes in collision_elements(urdf_path, links):
         centres, radii = [np.zeros((0, 3))], [np.zeros(0)]
-        for geometry, rotation, origin in collision_elements(urdf_path, link):
+        for geometry, rotation, origin in shapes:
             c, r = _primitive_spheres(geometry, f"URDF {urdf_path}, link {link!r}")
             centres.append(c @ rotation.T + origin)
             radii.append(r)
