@@ -29,15 +29,22 @@ def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray) 
         (Chamfer L1 / L2 mm, F-score at 1 / 2 / 5 mm, normal consistency), ``surface_error`` (all of
         :func:`reconstruction.metrics.surface_error`), and with contacts ``coverage`` (fraction
         of the truth within ``COVERAGE_RADIUS_M`` of a contact), ``contact_normal_error_mean_deg``
-        and ``contact_position_error_rms_mm`` (distance of the contacts to the truth).
+        and ``contact_position_error_rms_mm`` (distance of the contacts to the truth); the
+        topology of both (``topology``, ``truth_topology``:
+        :class:`reconstruction.topology.Topology`) and what the reconstruction has too many of,
+        ``extra_handles`` (holes through thin walls, bridges) and ``extra_components``.
     """
     from objects.proximity import MeshProximity
     from reconstruction.metrics import contact_coverage, surface_error
+    from reconstruction.topology import surface_topology
 
     err = surface_error(mesh, truth)
+    shape, true_shape = surface_topology(mesh), surface_topology(truth)
     errors = dict(position_rmse_mm=err.position_rmse_mm, normal_rmse_deg=err.normal_rmse_deg,
                   edge_rmse_mm=err.edge_rmse_mm, **{k: getattr(err, k) for k in STANDARD_METRICS},
-                  surface_error=asdict(err))
+                  surface_error=asdict(err), topology=shape.as_dict(), truth_topology=true_shape.as_dict(),
+                  extra_handles=shape.genus - true_shape.genus,
+                  extra_components=shape.components - true_shape.components)
     if len(points):
         _, distance, face = MeshProximity(truth).query(points)
         cosines = np.clip(np.sum(normals * truth.face_normals[face], axis=1), -1.0, 1.0)

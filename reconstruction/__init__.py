@@ -11,7 +11,8 @@ Public API:
 * :func:`confident_surface` (cut the faces where the posterior std of ``f`` is above a bound);
 * metrics: :func:`surface_error` (-> :class:`SurfaceError`), :func:`shape_metrics`,
   :func:`point_cloud_metrics` (-> :class:`ShapeMetrics`: Chamfer, F-score, normal consistency),
-  :func:`contact_coverage`;
+  :func:`contact_coverage`; :func:`surface_topology` (-> :class:`Topology`: parts, genus,
+  boundary loops);
 * test data: :func:`sample_contacts` with :class:`ContactNoise`.
 
 Every name is imported on first use (module ``__getattr__``), so ``import reconstruction`` does
@@ -33,6 +34,8 @@ _LAZY = {
     "mesh_zero_level": "reconstruction.meshing",
     "confident_surface": "reconstruction.confidence",
     "SurfaceError": "reconstruction.metrics",
+    "Topology": "reconstruction.topology",
+    "surface_topology": "reconstruction.topology",
     "ShapeMetrics": "reconstruction.metrics",
     "FSCORE_THRESHOLDS_M": "reconstruction.metrics",
     "surface_error": "reconstruction.metrics",
