@@ -112,7 +112,8 @@ def test_the_summary_equals_statistics_computed_from_the_csv(pool_sweep):
                 f"{statistics.fmean(angle):.1f} +- {statistics.pstdev(angle):.1f}",
                 mean_of("chamfer_l1_mm", 2), mean_of("chamfer_l2_mm", 2), mean_of("fscore_1mm", 3),
                 mean_of("fscore_2mm", 3), mean_of("fscore_5mm", 3), mean_of("normal_consistency", 3),
-                f"{statistics.fmean(coverage):.3f}", f"{statistics.fmean(reached):.1f} (2/2)",
+                f"{statistics.fmean(coverage):.3f}", mean_of("extra_handles", 1),
+                f"{statistics.fmean(reached):.1f} (2/2)",
                 (f"{statistics.fmean(reached_2mm):.1f}" if reached_2mm else "-") + f" ({len(reached_2mm)}/2)"]
     table = [line.strip("|").split("|") for line in report.markdown_path.read_text().splitlines()
              if line.startswith("| sphere ")]
