@@ -42,6 +42,11 @@ def test_the_summary_counts_objects_against_the_targets():
     assert f"RMSE median {np.median([2.0, 4.0, 1.5]):.2f} mm" in held_out
     assert "over 3 mm: 1/3 (wedge/1000 4.00)" in held_out
     assert "objects >= 0.8: 1/3" in held_out
+    assert "extra handles" not in held_out  # rows from before the column: nothing claimed
+    holed = [dict(r, extra_handles=(3.0 if "bowl" in r["object"] else 0.0)) for r in ROWS]
+    held_out = next(line for line in target_summary(object_results(holed)).split("\n\n")
+                    if line.startswith("held-out"))
+    assert held_out.endswith("; extra handles: 1/3 (bowl/1000 3.0)")
     table = family_table(object_results(ROWS))
     assert "| mug | 0.50 |" in table and "mug/1000 2.00 (1.00-3.00)" in table
 

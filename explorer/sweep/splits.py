@@ -67,6 +67,7 @@ class ObjectResult:
     fscore_2mm: float
     touches_to_3mm: float
     touches_to_2mm: float
+    extra_handles: float = float("nan")
 
 
 def object_results(rows: Sequence[dict], strategy: str | None = None, normals: bool = True) -> list[ObjectResult]:
@@ -87,7 +88,7 @@ def object_results(rows: Sequence[dict], strategy: str | None = None, normals: b
             name, split_of(name), family_of(name), len(members), float(np.mean(rmse)),
             (float(np.min(rmse)), float(np.max(rmse))), _mean(members, "coverage"), _mean(members, "contacts"),
             _mean(members, "chamfer_l1_mm"), _mean(members, "fscore_2mm"),
-            _mean(members, "touches_to_3mm"), _mean(members, "touches_to_2mm")))
+            _mean(members, "touches_to_3mm"), _mean(members, "touches_to_2mm"), _mean(members, "extra_handles")))
     return out
 
 
@@ -112,6 +113,17 @@ def family_table(results: Sequence[ObjectResult]) -> str:
     return "\n".join(lines)
 
 
+def _handles_summary(members: Sequence[ObjectResult]) -> str:
+    """"; extra handles ...": the objects whose reconstructions have holes through their walls
+    (mean over seeds above 0); nothing for sweeps from before the column."""
+    known = [m for m in members if np.isfinite(m.extra_handles)]
+    if not known:
+        return ""
+    holed = [m for m in known if m.extra_handles > 0]
+    return (f"; extra handles: {len(holed)}/{len(known)}"
+            + (f" ({', '.join(f'{m.name.split(chr(58), 1)[1]} {m.extra_handles:.1f}' for m in holed)})" if holed else ""))
+
+
 def target_summary(results: Sequence[ObjectResult]) -> str:
     """One paragraph per split: median / max RMSE, objects over the limit, coverage, touches to 3 / 2 mm."""
     lines = []
@@ -133,7 +145,8 @@ def target_summary(results: Sequence[ObjectResult]) -> str:
             + f"; coverage median {np.nanmedian(coverage):.2f}, objects >= {COVERAGE_TARGET}: "
             f"{int(np.sum(coverage >= COVERAGE_TARGET))}/{len(members)}; reached 3 mm: {len(reached3)}/{len(members)}"
             + (f" (mean {np.mean(reached3):.0f} touches)" if reached3 else "")
-            + f", 2 mm: {len(reached2)}/{len(members)}" + (f" (mean {np.mean(reached2):.0f} touches)" if reached2 else ""))
+            + f", 2 mm: {len(reached2)}/{len(members)}" + (f" (mean {np.mean(reached2):.0f} touches)" if reached2 else "")
+            + _handles_summary(members))
     return "\n\n".join(lines)
 
 
