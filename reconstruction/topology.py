@@ -11,8 +11,8 @@ gives its genus ``g`` (handles: a torus or a mug has one, a plate with two holes
 from its Euler characteristic ``chi`` and its number of boundary loops ``b`` (0 for a closed
 surface; a marching-cubes surface cut by its meshing region has some).
 
-The counts come from the mesh's vertex, edge and face arrays (trimesh's unique edges and
-connected components); nothing here depends on the mesh's units or frame.
+The counts come from the mesh's face array (its unique edges, and its parts from trimesh's face
+adjacency); nothing here depends on the mesh's units or frame.
 """
 from __future__ import annotations
 
@@ -50,14 +50,14 @@ class Topology:
         return asdict(self)
 
 
-def _boundary_loops(boundary_edges: np.ndarray) -> int:
-    """Number of closed loops (connected components) formed by ``boundary_edges`` (k, 2) int."""
-    if not len(boundary_edges):
+def _connected_groups(pairs: np.ndarray) -> int:
+    """Number of connected groups of the nodes named in ``pairs`` ((k, 2) int graph edges)."""
+    if not len(pairs):
         return 0
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    nodes, inverse = np.unique(boundary_edges, return_inverse=True)
+    nodes, inverse = np.unique(pairs, return_inverse=True)
     inverse = inverse.reshape(-1, 2)
     graph = coo_matrix((np.ones(len(inverse)), (inverse[:, 0], inverse[:, 1])), shape=(len(nodes), len(nodes)))
     return int(connected_components(graph, directed=False)[0])
@@ -75,8 +75,11 @@ def surface_topology(mesh) -> Topology:
     unique_edges, uses = np.unique(edges, axis=0, return_counts=True)
     vertices = int(len(np.unique(faces)))
     chi = vertices - len(unique_edges) + len(faces)
-    loops = _boundary_loops(unique_edges[uses == 1])
-    components = int(len(mesh.split(only_watertight=False)))
+    loops = _connected_groups(unique_edges[uses == 1])
+    # faces sharing an edge are one part; a face sharing none is a part of its own
+    adjacency = np.asarray(mesh.face_adjacency, dtype=np.int64).reshape(-1, 2)
+    linked = len(np.unique(adjacency))
+    components = _connected_groups(adjacency) + (len(faces) - linked)
     # chi = sum over parts of (2 - 2 g_i - b_i)  =>  sum g_i = (2 C - chi - B) / 2
     genus = (2 * components - chi - loops) // 2
     return Topology(components=components, euler_characteristic=int(chi), genus=int(genus),

@@ -42,8 +42,8 @@ from objects.sampling import sample_surface
 from reconstruction.confidence import DEFAULT_MAX_STD_M
 from reconstruction.gpis import GPIS
 from reconstruction.metrics import shape_metrics
-from reconstruction.topology import surface_topology
 from reconstruction.synthetic_contacts import sample_contacts
+from reconstruction.topology import surface_topology
 
 #: The known rough location: the object's box grown by this fraction of its largest side.
 BOUNDS_PADDING = 0.2
