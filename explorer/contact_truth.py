@@ -1,8 +1,8 @@
 """Contact errors against the ground truth, by the local shape under the pad (issue 11).
 
 Offline analysis only (the loop never sees the truth): for each recorded contact, the true closest
-surface point and its face normal give the position and normal errors (as ``metrics.json`` computes
-them), and two measures of the shape under the 18 mm pad say why a contact may be off:
+surface point gives the position error and the normal cone there the normal error (as
+``metrics.json`` computes them), and two measures of the shape under the 18 mm pad say why a contact may be off:
 
 * ``edge_distance_m``: distance from the true closest point to the nearest sharp feature edge of
   the truth (dihedral angle > 30 deg, :attr:`objects.ObjectModel.sharp_edges`);
@@ -35,7 +35,9 @@ class ContactTruth:
     position_error_m : (n,) float
         Distance of each contact to the true surface, metres.
     normal_error_rad : (n,) float
-        Angle between each measured normal and the true normal of the closest face, radians.
+        Angle between each measured normal and the true normal cone at the closest point (the
+        closest face's normal inside a face, any normal between the faces' normals on an edge:
+        :meth:`objects.proximity.MeshProximity.normal_cone_error`), radians.
     edge_distance_m : (n,) float
         Distance of the true closest point to the nearest sharp edge (inf without sharp edges), metres.
     normal_spread_rad : (n,) float
@@ -78,9 +80,9 @@ def contact_truth(points: np.ndarray, normals: np.ndarray, mesh, sharp_edges: np
 
     points = np.asarray(points, float).reshape(-1, 3)
     normals = np.asarray(normals, float).reshape(-1, 3)
-    closest, distance, face = MeshProximity(mesh).query(points)
+    proximity = MeshProximity(mesh)
+    closest, distance, face = proximity.query(points)
     true_normal = mesh.face_normals[face]
-    cosine = np.clip(np.sum(normals * true_normal, axis=1), -1.0, 1.0)
     sample_points, sample_faces = trimesh.sample.sample_surface_even(mesh, samples, seed=seed)
     sample_normals = mesh.face_normals[sample_faces]
     tree = cKDTree(sample_points)
@@ -90,7 +92,7 @@ def contact_truth(points: np.ndarray, normals: np.ndarray, mesh, sharp_edges: np
             cosines = sample_normals[near] @ true_normal[i]
             cosines = cosines[cosines > np.cos(np.radians(100.0))]
             spread[i] = float(np.arccos(np.clip(cosines.min(), -1.0, 1.0))) if len(cosines) else 0.0
-    return ContactTruth(distance, np.arccos(cosine), segment_distance(closest, sharp_edges), spread,
+    return ContactTruth(distance, proximity.normal_cone_error(points, normals), segment_distance(closest, sharp_edges), spread,
                         closest, true_normal)
 
 

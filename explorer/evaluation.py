@@ -29,7 +29,12 @@ def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray) 
         (Chamfer L1 / L2 mm, F-score at 1 / 2 / 5 mm, normal consistency), ``surface_error`` (all of
         :func:`reconstruction.metrics.surface_error`), and with contacts ``coverage`` (fraction
         of the truth within ``COVERAGE_RADIUS_M`` of a contact), ``contact_normal_error_mean_deg``
-        and ``contact_position_error_rms_mm`` (distance of the contacts to the truth); the
+        (angle to the truth's normal cone at the closest point:
+        :meth:`objects.proximity.MeshProximity.normal_cone_error`; a normal between the two faces
+        of an edge the contact sits on counts as right), ``contact_normal_error_closest_face_mean_deg``
+        (the angle to the one closest face's normal, as before 2026-11-26: on an edge it depends on
+        which face the search returns) and ``contact_position_error_rms_mm`` (distance of the
+        contacts to the truth); the
         topology of both (``topology``, ``truth_topology``:
         :class:`reconstruction.topology.Topology`) and what the reconstruction has too many of,
         ``extra_handles`` (holes through thin walls, bridges) and ``extra_components``.
@@ -46,11 +51,13 @@ def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray) 
                   extra_handles=shape.genus - true_shape.genus,
                   extra_components=shape.components - true_shape.components)
     if len(points):
-        _, distance, face = MeshProximity(truth).query(points)
+        proximity = MeshProximity(truth)
+        _, distance, face = proximity.query(points)
         cosines = np.clip(np.sum(normals * truth.face_normals[face], axis=1), -1.0, 1.0)
         errors.update(coverage=contact_coverage(points, truth, COVERAGE_RADIUS_M),
                       coverage_radius_m=COVERAGE_RADIUS_M,
-                      contact_normal_error_mean_deg=float(np.degrees(np.arccos(cosines)).mean()),
+                      contact_normal_error_mean_deg=float(np.degrees(proximity.normal_cone_error(points, normals)).mean()),
+                      contact_normal_error_closest_face_mean_deg=float(np.degrees(np.arccos(cosines)).mean()),
                       contact_position_error_rms_mm=float(1e3 * np.sqrt(np.mean(distance ** 2))))
     return errors
 

@@ -8,11 +8,17 @@ with k four times larger, up to all faces; a retry evaluates only the new faces 
 within (best distance so far + rho_max), the only ones that can be nearer. Cost grows with the number of faces within
 (distance + rho_max) of a query: a few dozen for points near a uniformly tessellated surface, all of
 them for a point equidistant from a whole patch (the centre of a sphere).
+
+:meth:`MeshProximity.normal_cone_error` measures a normal against the surface at the closest point.
+Where that point lies on an edge or a vertex, every normal between the normals of the faces meeting
+there is a true normal (the normal cone); measuring against the one face the search happened to
+return would charge a pad lying across a box edge with the full dihedral angle.
 """
 from __future__ import annotations
 
 import numpy as np
 import trimesh
+from scipy.optimize import nnls
 from scipy.spatial import cKDTree
 
 FIRST_CANDIDATES = 8
@@ -77,9 +83,12 @@ class MeshProximity:
         if len(self._face_ids) == 0:
             raise ValueError("mesh has no face of positive area")
         self._triangles = triangles[self._face_ids]
+        self._normals = np.asarray(mesh.face_normals, float)[self._face_ids]
         centroids = self._triangles.mean(axis=1)
         self._rho_max = float(np.max(np.linalg.norm(self._triangles - centroids[:, None], axis=2)))
         self._tree = cKDTree(centroids)
+        # A point on a shared edge is this close to both faces (float64 rounding), whatever the units.
+        self._on_face_tolerance = 1e-9 * float(np.linalg.norm(np.ptp(triangles.reshape(-1, 3), axis=0)))
 
     def query(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Closest surface point to each query point.
@@ -142,3 +151,103 @@ class MeshProximity:
             pending = pending[~certified]
             tried, k = k, k * 4
         return closest, distance, face
+
+    def faces_at(self, surface_points: np.ndarray) -> list[np.ndarray]:
+        """The faces each surface point lies on: one inside a face, two on an edge, all its faces at a vertex.
+
+        Parameters
+        ----------
+        surface_points : (n, 3) float
+            Points on the mesh (e.g. ``closest`` of :meth:`query`), mesh frame and units.
+
+        Returns
+        -------
+        list of n int arrays
+            Indices into the original mesh's faces; empty for a point on no face.
+        """
+        surface_points = np.asarray(surface_points, float).reshape(-1, 3)
+        out = []
+        for point, near in zip(surface_points, self._tree.query_ball_point(surface_points, self._rho_max * (1 + 1e-9))):
+            near = np.asarray(near, dtype=np.int64)
+            tri = self._triangles[near]
+            on = closest_on_triangles(np.repeat(point[None], len(near), 0), tri[:, 0], tri[:, 1], tri[:, 2])
+            touching = np.linalg.norm(on - point, axis=1) <= self._on_face_tolerance
+            out.append(self._face_ids[near[touching]])
+        return out
+
+    def normal_cone_error(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """Angle between each normal and the mesh's normal cone at the point's closest surface point.
+
+        The cone is spanned by the normals of the faces the closest point lies on
+        (:meth:`faces_at`): a single normal inside a face, the arc between two normals on an edge,
+        their spherical polygon at a vertex (:func:`angle_to_cone`). Away from edges this is the
+        angle to the closest face's normal.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Query points (e.g. measured contacts), mesh frame and units.
+        normals : (n, 3) float
+            Unit normals measured there (outward).
+
+        Returns
+        -------
+        (n,) float, radians, in [0, pi]
+        """
+        normals = np.asarray(normals, float).reshape(-1, 3)
+        closest, _, face = self.query(points)
+        if len(normals) != len(closest):
+            raise ValueError(f"got {len(closest)} points but {len(normals)} normals")
+        positions = {int(f): i for i, f in enumerate(self._face_ids)}
+        errors = np.empty(len(closest))
+        for i, (normal, faces) in enumerate(zip(normals, self.faces_at(closest))):
+            ids = faces if len(faces) else face[i:i + 1]
+            errors[i] = angle_to_cone(normal, self._normals[[positions[int(f)] for f in ids]])
+        return errors
+
+
+def angle_to_cone(direction: np.ndarray, generators: np.ndarray) -> float:
+    """Angle between a unit vector and the convex cone spanned by unit vectors, radians.
+
+    Zero when ``direction`` is a non-negative combination of ``generators`` (non-negative least
+    squares); otherwise the angle to the nearest point of the cone's boundary, which lies on one
+    of the great-circle arcs between two generators (or at a generator).
+
+    Parameters
+    ----------
+    direction : (3,) float, unit
+    generators : (k, 3) float, unit, k >= 1
+    """
+    direction = np.asarray(direction, float).reshape(3)
+    generators = np.asarray(generators, float).reshape(-1, 3)
+    cosines = np.clip(generators @ direction, -1.0, 1.0)
+    best = float(np.arccos(cosines.max()))
+    if len(generators) < 2 or best == 0.0:
+        return best
+    if len(generators) >= 3:
+        _, residual = nnls(generators.T, direction)
+        if residual < 1e-9:
+            return 0.0
+    for i in range(len(generators)):
+        for j in range(i + 1, len(generators)):
+            best = min(best, _angle_to_arc(direction, generators[i], generators[j]))
+    return best
+
+
+def _angle_to_arc(direction: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """Angle from a unit vector to the shorter great-circle arc between unit ``a`` and ``b``."""
+    axis = np.cross(a, b)
+    norm = np.linalg.norm(axis)
+    ends = float(np.arccos(np.clip(max(direction @ a, direction @ b), -1.0, 1.0)))
+    if norm < 1e-12:
+        return ends
+    axis /= norm
+    in_plane = direction - (direction @ axis) * axis
+    length = np.linalg.norm(in_plane)
+    if length < 1e-12:
+        return ends
+    in_plane /= length
+    # The foot lies on the arc when it is on a's side of b and on b's side of a.
+    if np.cross(a, in_plane) @ axis >= 0 and np.cross(in_plane, b) @ axis >= 0:
+        return float(np.arcsin(np.clip(abs(direction @ axis), 0.0, 1.0)))
+    return ends

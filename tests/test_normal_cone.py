@@ -1,0 +1,99 @@
+"""The normal error against a mesh's normal cone (objects.proximity), checked against closed forms
+on a box and against a brute-force search of the cone."""
+import numpy as np
+import pytest
+import trimesh
+
+from explorer.evaluation import reconstruction_errors
+from objects.proximity import MeshProximity, angle_to_cone
+
+
+def unit(v) -> np.ndarray:
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+@pytest.fixture(scope="module")
+def cube():
+    """The cube [-1, 1]^3 (12 triangles: each face split along a diagonal)."""
+    return trimesh.creation.box((2.0, 2.0, 2.0))
+
+
+@pytest.mark.parametrize("normal, expected_deg", [
+    ([1, 0, 1], 0.0),                                   # the bisector: inside the cone
+    ([1, 0, 0], 0.0), ([0, 0, 1], 0.0),                 # either face's own normal
+    ([1, 0, 0.3], 0.0),                                 # anywhere between them
+    ([1, 0, -0.2], np.degrees(np.arctan(0.2))),         # past the +x face: the angle to it
+    ([1, 0.3, 1], np.degrees(np.arcsin(0.3 / np.sqrt(2.09)))),  # out of the arc's plane
+])
+def test_on_an_edge_the_error_is_the_angle_to_the_arc_between_the_two_faces(cube, normal, expected_deg):
+    point = np.array([[1.5, 0.2, 1.5]])  # closest point (1, 0.2, 1): on the edge of the +x and +z faces
+    error = MeshProximity(cube).normal_cone_error(point, unit(normal)[None])
+    assert np.degrees(error[0]) == pytest.approx(expected_deg, abs=1e-9)
+
+
+@pytest.mark.parametrize("normal", [[1, 1, 1], [1, 1, -0.2], [-0.1, 1, 1], [-0.3, -0.2, 1], [0.2, 0.1, 0.9]])
+def test_at_a_corner_the_cone_is_the_octant(cube, normal):
+    """Closed form: the nearest direction in the positive octant clips the negative components."""
+    m = unit(normal)
+    expected = np.arccos(np.clip(m @ unit(np.clip(m, 0.0, None)), -1, 1))
+    error = MeshProximity(cube).normal_cone_error(np.array([[1.3, 1.2, 1.1]]), m[None])
+    assert error[0] == pytest.approx(expected, abs=1e-9)
+
+
+def test_inside_a_face_it_is_the_angle_to_that_face(cube):
+    rng = np.random.default_rng(0)
+    points = np.column_stack([np.full(20, 1.4), rng.uniform(-0.8, 0.8, (20, 2))])  # closest points inside +x
+    normals = unit(rng.normal(size=(20, 3)))
+    expected = np.arccos(np.clip(normals[:, 0], -1, 1))
+    np.testing.assert_allclose(MeshProximity(cube).normal_cone_error(points, normals), expected, atol=1e-9)
+
+
+def test_points_on_an_edge_and_at_a_corner_lie_on_their_faces(cube):
+    faces = MeshProximity(cube).faces_at(np.array([[1.0, 0.2, 1.0], [1.0, 1.0, 1.0], [1.0, 0.1, 0.2]]))
+    normals = [np.unique(np.round(cube.face_normals[f], 9), axis=0) for f in faces]
+    assert [len(n) for n in normals] == [2, 3, 1]  # two faces' normals on the edge, three at the corner
+
+
+def brute_force_angle(direction, generators, n=200_000, seed=0) -> float:
+    """Smallest angle to random non-negative combinations of the generators (and the generators)."""
+    weights = np.random.default_rng(seed).exponential(size=(n, len(generators))) ** 3  # reach the boundary
+    weights[: len(generators)] = np.eye(len(generators))
+    cone = unit(weights @ generators)
+    return float(np.arccos(np.clip(cone @ direction, -1, 1)).min())
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_angle_to_a_cone_matches_a_brute_force_search(seed):
+    rng = np.random.default_rng(seed)
+    axis = unit(rng.normal(size=3))
+    generators = unit(axis + 0.8 * rng.normal(size=(int(rng.integers(2, 5)), 3)))  # a pointed cone
+    generators = generators[generators @ axis > 0.2]
+    for direction in unit(rng.normal(size=(8, 3))):
+        exact = angle_to_cone(direction, generators)
+        searched = brute_force_angle(direction, generators)
+        assert exact <= searched + 1e-9  # never more than an angle actually reached
+        assert searched - exact < np.radians(0.5)
+
+
+def test_on_a_faceted_sphere_the_cone_error_never_exceeds_the_closest_face_error():
+    sphere = trimesh.creation.icosphere(subdivisions=2, radius=0.05)
+    rng = np.random.default_rng(3)
+    points = unit(rng.normal(size=(300, 3))) * rng.uniform(0.048, 0.054, (300, 1))
+    normals = unit(points + rng.normal(scale=0.2, size=points.shape) * np.linalg.norm(points, axis=1, keepdims=True))
+    proximity = MeshProximity(sphere)
+    _, _, face = proximity.query(points)
+    closest_face = np.arccos(np.clip(np.sum(normals * sphere.face_normals[face], axis=1), -1, 1))
+    cone = proximity.normal_cone_error(points, normals)
+    assert np.all(cone <= closest_face + 1e-12)
+    assert np.any(cone < closest_face - 1e-6)  # points outside project onto edges and vertices
+    facet_angle = np.arccos(np.clip(np.einsum("ij,ij->i", *sphere.face_normals[sphere.face_adjacency.T]), -1, 1)).max()
+    assert np.all(closest_face - cone <= facet_angle * 1.5 + 1e-9)
+
+
+def test_metrics_charge_a_contact_across_an_edge_nothing_for_a_normal_between_its_faces(cube):
+    mesh = cube.copy()
+    point = np.array([[1.0005, 0.3, 1.0005]])  # 0.7 mm beside the edge, the pad across it
+    errors = reconstruction_errors(mesh, cube, point, unit([[1.0, 0.0, 1.0]]))
+    assert errors["contact_normal_error_mean_deg"] == pytest.approx(0.0, abs=1e-9)
+    assert errors["contact_normal_error_closest_face_mean_deg"] == pytest.approx(45.0, abs=1e-6)
