@@ -22,6 +22,9 @@ from scipy.optimize import nnls
 from scipy.spatial import cKDTree
 
 FIRST_CANDIDATES = 8
+#: Faces within this of a closest point span its normal cone (metres for the truth meshes: their
+#: promised discretisation error, 0.1 mm).
+NORMAL_CONE_TOLERANCE = 1e-4
 CHUNK_PAIRS = 2_000_000  # point-triangle pairs evaluated at once (memory bound)
 
 
@@ -152,36 +155,48 @@ class MeshProximity:
             tried, k = k, k * 4
         return closest, distance, face
 
-    def faces_at(self, surface_points: np.ndarray) -> list[np.ndarray]:
-        """The faces each surface point lies on: one inside a face, two on an edge, all its faces at a vertex.
+    def faces_at(self, surface_points: np.ndarray, tolerance: float = 0.0) -> list[np.ndarray]:
+        """The faces passing within ``tolerance`` of each surface point.
+
+        With ``tolerance`` 0: the face a point lies inside, the two faces of the edge it lies on, all
+        faces of its vertex (up to float64 rounding).
 
         Parameters
         ----------
         surface_points : (n, 3) float
             Points on the mesh (e.g. ``closest`` of :meth:`query`), mesh frame and units.
+        tolerance : float
+            Mesh units, >= 0.
 
         Returns
         -------
         list of n int arrays
             Indices into the original mesh's faces; empty for a point on no face.
         """
+        if not (np.isfinite(tolerance) and tolerance >= 0):
+            raise ValueError(f"tolerance must be a finite length >= 0, got {tolerance!r}")
         surface_points = np.asarray(surface_points, float).reshape(-1, 3)
+        reach = tolerance + self._on_face_tolerance
         out = []
-        for point, near in zip(surface_points, self._tree.query_ball_point(surface_points, self._rho_max * (1 + 1e-9))):
+        for point, near in zip(surface_points, self._tree.query_ball_point(surface_points, self._rho_max + reach)):
             near = np.asarray(near, dtype=np.int64)
             tri = self._triangles[near]
             on = closest_on_triangles(np.repeat(point[None], len(near), 0), tri[:, 0], tri[:, 1], tri[:, 2])
-            touching = np.linalg.norm(on - point, axis=1) <= self._on_face_tolerance
-            out.append(self._face_ids[near[touching]])
+            out.append(self._face_ids[near[np.linalg.norm(on - point, axis=1) <= reach]])
         return out
 
-    def normal_cone_error(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    def normal_cone_error(self, points: np.ndarray, normals: np.ndarray,
+                          tolerance: float = NORMAL_CONE_TOLERANCE) -> np.ndarray:
         """Angle between each normal and the mesh's normal cone at the point's closest surface point.
 
-        The cone is spanned by the normals of the faces the closest point lies on
-        (:meth:`faces_at`): a single normal inside a face, the arc between two normals on an edge,
-        their spherical polygon at a vertex (:func:`angle_to_cone`). Away from edges this is the
-        angle to the closest face's normal.
+        The cone at a surface point is spanned by the normals of the faces passing within
+        ``tolerance`` of it (:meth:`faces_at`): one normal inside a face, the arc between two normals
+        at an edge, their spherical polygon at a vertex (:func:`angle_to_cone`). Within
+        ``tolerance`` of an edge a point counts as on it: whether a contact's closest point lies on
+        the edge or a micrometre inside one face is below any mesh's accuracy. Where several surface
+        points are equally close (within ``tolerance``: a contact pressed into a corner, half way
+        through a wall), the smallest angle over their cones: which of them is "the" closest point
+        is as arbitrary there. Away from edges and ties this is the angle to the closest face's normal.
 
         Parameters
         ----------
@@ -189,20 +204,28 @@ class MeshProximity:
             Query points (e.g. measured contacts), mesh frame and units.
         normals : (n, 3) float
             Unit normals measured there (outward).
+        tolerance : float
+            Mesh units; the default is 0.1 mm for a mesh in metres, the discretisation error the
+            project's truth meshes promise (``tests/test_objects.py``).
 
         Returns
         -------
         (n,) float, radians, in [0, pi]
         """
+        points = np.asarray(points, float).reshape(-1, 3)
         normals = np.asarray(normals, float).reshape(-1, 3)
-        closest, _, face = self.query(points)
-        if len(normals) != len(closest):
-            raise ValueError(f"got {len(closest)} points but {len(normals)} normals")
-        positions = {int(f): i for i, f in enumerate(self._face_ids)}
-        errors = np.empty(len(closest))
-        for i, (normal, faces) in enumerate(zip(normals, self.faces_at(closest))):
-            ids = faces if len(faces) else face[i:i + 1]
-            errors[i] = angle_to_cone(normal, self._normals[[positions[int(f)] for f in ids]])
+        _, distance, _ = self.query(points)
+        if len(normals) != len(points):
+            raise ValueError(f"got {len(points)} points but {len(normals)} normals")
+        reach = tolerance + self._on_face_tolerance
+        errors = np.empty(len(points))
+        for i, (point, normal) in enumerate(zip(points, normals)):
+            near = np.asarray(self._tree.query_ball_point(point, distance[i] + reach + self._rho_max), dtype=np.int64)
+            tri = self._triangles[near]
+            on = closest_on_triangles(np.repeat(point[None], len(near), 0), tri[:, 0], tri[:, 1], tri[:, 2])
+            nearest = on[np.linalg.norm(on - point, axis=1) <= distance[i] + reach]
+            errors[i] = min(angle_to_cone(normal, self._normals[np.searchsorted(self._face_ids, faces)])
+                            for faces in self.faces_at(nearest, tolerance))
         return errors
 
 

@@ -50,9 +50,29 @@ def test_inside_a_face_it_is_the_angle_to_that_face(cube):
 
 
 def test_points_on_an_edge_and_at_a_corner_lie_on_their_faces(cube):
-    faces = MeshProximity(cube).faces_at(np.array([[1.0, 0.2, 1.0], [1.0, 1.0, 1.0], [1.0, 0.1, 0.2]]))
-    normals = [np.unique(np.round(cube.face_normals[f], 9), axis=0) for f in faces]
-    assert [len(n) for n in normals] == [2, 3, 1]  # two faces' normals on the edge, three at the corner
+    proximity = MeshProximity(cube)
+    points = np.array([[1.0, 0.2, 1.0], [1.0, 1.0, 1.0], [1.0, 0.1, 0.2], [1.0, 0.1, 1.0 - 5e-6], [1.0, 0.1, 0.99]])
+    normals = [np.unique(np.round(cube.face_normals[f], 9), axis=0) for f in proximity.faces_at(points, 1e-4)]
+    # two faces' normals on the edge, three at the corner, one inside a face; 5e-6 from the edge
+    # counts as on it (tolerance 1e-4), 0.01 does not; with no tolerance 5e-6 is off the edge
+    assert [len(n) for n in normals] == [2, 3, 1, 2, 1]
+    assert len(np.unique(np.round(cube.face_normals[proximity.faces_at(points[3:4])[0]], 9), axis=0)) == 1
+
+
+def test_a_point_equally_near_two_faces_is_measured_against_the_better_one(cube):
+    """Pressed into the solid on the bisector of an edge: neither face is more "the" closest one."""
+    proximity = MeshProximity(cube)
+    inside = np.array([[0.7, 0.0, 0.7 + 2e-5]])  # 0.3 from both faces, 2e-5 (under the tolerance) nearer the +z one
+    assert np.degrees(proximity.normal_cone_error(inside, np.array([[1.0, 0.0, 0.0]])))[0] == pytest.approx(0.0, abs=1e-9)
+    assert np.degrees(proximity.normal_cone_error(inside, unit([[1.0, 0.0, 1.0]])))[0] == pytest.approx(45.0, abs=1e-6)
+    deeper = np.array([[0.7, 0.0, 0.75]])  # 0.05 nearer the +z face: the +x face is no candidate
+    assert np.degrees(proximity.normal_cone_error(deeper, np.array([[1.0, 0.0, 0.0]])))[0] == pytest.approx(90.0, abs=1e-6)
+
+
+def test_the_far_side_of_a_thin_wall_never_joins_the_cone():
+    slab = trimesh.creation.box((0.1, 0.1, 0.004))  # a 4 mm wall
+    error = MeshProximity(slab).normal_cone_error(np.array([[0.0, 0.0, 0.0015]]), np.array([[0.0, 0.0, -1.0]]))
+    assert np.degrees(error[0]) == pytest.approx(180.0, abs=1e-6)  # 0.5 mm below the top, normal of the bottom
 
 
 def brute_force_angle(direction, generators, n=200_000, seed=0) -> float:
@@ -87,8 +107,11 @@ def test_on_a_faceted_sphere_the_cone_error_never_exceeds_the_closest_face_error
     cone = proximity.normal_cone_error(points, normals)
     assert np.all(cone <= closest_face + 1e-12)
     assert np.any(cone < closest_face - 1e-6)  # points outside project onto edges and vertices
+    # Against the analytic sphere's normal at the point, the cone error is off by at most the
+    # turn between neighbouring facets (the faceting), whatever the point.
     facet_angle = np.arccos(np.clip(np.einsum("ij,ij->i", *sphere.face_normals[sphere.face_adjacency.T]), -1, 1)).max()
-    assert np.all(closest_face - cone <= facet_angle * 1.5 + 1e-9)
+    analytic = np.arccos(np.clip(np.sum(normals * unit(points), axis=1), -1, 1))
+    assert np.all(np.abs(cone - analytic) <= facet_angle + 1e-9)
 
 
 def test_metrics_charge_a_contact_across_an_edge_nothing_for_a_normal_between_its_faces(cube):
