@@ -16,7 +16,8 @@ Public API:
   :class:`SessionReplay` with :class:`ReplaySettings` (-> :class:`ReplayResult`);
 * :func:`reconstruction_errors` (what ``metrics.json`` reports), :func:`load_config`;
 * contact quality (issue 11): :class:`ContactPipeline`, :class:`ContactQuality`, :class:`DoubtRule`,
-  :func:`pad_load`, and against a known truth :func:`contact_truth`.
+  :func:`pad_load`, the presses that give no contact (:class:`NoContactMeasured`,
+  :class:`PressReleased`), and against a known truth :func:`contact_truth`.
 
 Every name is imported on first use (module ``__getattr__``), so ``import explorer`` imports
 neither torch nor pybullet.
@@ -66,6 +67,8 @@ _LAZY = {
     "ContactPipeline": "explorer.contact",
     "ContactQuality": "explorer.contact",
     "DoubtRule": "explorer.contact",
+    "NoContactMeasured": "explorer.contact",
+    "PressReleased": "explorer.contact",
     "pad_load": "explorer.contact",
     "contact_truth": "explorer.contact_truth",
 }

@@ -40,6 +40,13 @@ class NoContactMeasured(ValueError):
     """The press's readings give no contact: the orientation never settled, or the pressure saturated."""
 
 
+class PressReleased(NoContactMeasured):
+    """The pad had let go before its orientation settled: the settled force lies below the contact
+    detector's end threshold, so by the detector's own rule the contact was over. Neither the pad's
+    orientation nor its place says where the surface is (e.g. the arm's protective stop pulled the
+    pad back while it pressed on its side: 0.06 N settled after a 1.6 N peak, 24 mm off the mug)."""
+
+
 @dataclass(frozen=True)
 class ObjectFrame:
     """Where the object frame is in the world: ``x_world = rotation @ x_object + origin_m``.
@@ -299,11 +306,18 @@ class ContactPipeline:
         instead of the pad-face centre (False: the pipeline before issue 11, for comparison).
     doubt : DoubtRule, optional
         When a contact is doubtful (default :class:`DoubtRule`).
+    release_threshold_pa : float, optional
+        The contact detector's end threshold (pressure rise over the baseline, pascals): a press
+        whose settled force is below its force had let go (:class:`PressReleased`). None: no such test.
     """
 
     def __init__(self, kinematics, pad: PadCalibration, settling: SettlingConfig = LOOP_SETTLING,
-                 centre_of_pressure: bool = True, doubt: DoubtRule | None = None):
+                 centre_of_pressure: bool = True, doubt: DoubtRule | None = None,
+                 release_threshold_pa: float | None = None):
+        if release_threshold_pa is not None and not (np.isfinite(release_threshold_pa) and release_threshold_pa > 0):
+            raise ValueError(f"release_threshold_pa must be None or a positive pressure, got {release_threshold_pa!r}")
         self.kinematics = kinematics
+        self.release_threshold_pa = release_threshold_pa
         self.doubt = doubt if doubt is not None else DoubtRule()
         self.pad = pad
         self.settling = settling
@@ -331,6 +345,8 @@ class ContactPipeline:
         NoContactMeasured
             The orientation never settled, the pressure saturated, or (``DoubtRule.side_force_n``)
             the press met the pad's side.
+        PressReleased
+            (``release_threshold_pa``) The pad had let go before its orientation settled.
         """
         kin = self.kinematics
         pivot_pose = kin.forward_kinematics(q, link=kin.spec.pivot_link)
@@ -341,6 +357,13 @@ class ContactPipeline:
                                        alignment=self.pad.alignment)
         except (OrientationNotSettledError, ValueError) as err:  # ValueError: saturated, too few readings
             raise NoContactMeasured(str(err)) from err
+        if self.release_threshold_pa is not None:
+            released_n = self.force_estimate_n(self.release_threshold_pa)
+            if contact.force_n < released_n:
+                peak_n = self.force_estimate_n(max(r.pressure_pa for r in readings) - baseline_pa)
+                raise PressReleased(f"the pad had let go: {contact.force_n:.2f} N when its orientation settled "
+                                    f"(peak {peak_n:.2f} N), below the contact's end at "
+                                    f"{self.release_threshold_pa:.0f} Pa ({released_n:.2f} N)")
         load = pad_load(pivot_pose.rotation, contact.normal, contact.force_n, self.pad.spring_stiffness_nm_per_rad,
                         self.pad.half_width_m)
         touched = contact.position_m + (load.offset_m if self.centre_of_pressure else 0.0)

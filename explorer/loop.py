@@ -30,7 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from explorer.config import ExplorationConfig
-from explorer.contact import LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, wants_realign
+from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, PressReleased,
+                              wants_realign)
 from explorer.evidence import SurfaceEvidence
 from explorer.motion_time import MotionTimeEstimator
 from explorer.planner import ApproachPlan, ApproachPlanner
@@ -146,6 +147,10 @@ class LoopConfig:
         A press that ends below this force with the pad turned less than this angle met the
         pad's side, not its face: ``no_normal`` (:class:`explorer.contact.DoubtRule`, ``side_*``).
         0 force: no such test.
+    drop_released_presses : bool
+        A press whose settled force lies below the contact detector's end threshold had let go
+        before the orientation settled (:class:`explorer.contact.PressReleased`): ``no_normal``,
+        and the pad's place is not taken as a side press. False: the loop before 2026-11-26.
     repress_force_n : float
         A contact that is doubtful after the press is pressed on (at most ``press_depth_m`` further)
         to this force and measured again from the readings of that second press: the pad reaches
@@ -176,6 +181,7 @@ class LoopConfig:
     repress_force_n: float = 3.0
     side_contact_force_n: float = 1.3
     side_contact_tilt_rad: float = float(np.radians(12.0))
+    drop_released_presses: bool = True
 
     def doubt_rule(self) -> DoubtRule:
         """The doubtful-contact rule of these settings."""
@@ -247,7 +253,9 @@ class ExplorationLoop:
         self.config = config
         self.recorder = recorder or Recorder()
         self.detector = detector or PressureContactDetector()
-        self.contact_pipeline = ContactPipeline(rig.kinematics, rig.pad, settling, doubt=config.doubt_rule())
+        self.contact_pipeline = ContactPipeline(rig.kinematics, rig.pad, settling, doubt=config.doubt_rule(),
+                                                release_threshold_pa=self.detector.config.end_threshold_pa
+                                                if config.drop_released_presses else None)
         self.evidence = SurfaceEvidence(gpis, config.free_space_value, config.free_space_noise,
                                         config.side_press_value, config.side_press_noise)
         self.state = ExplorationState(rig.prior, motion=MotionTimeEstimator(planner, rig.positioner))
@@ -562,7 +570,8 @@ class ExplorationLoop:
         except NoContactMeasured as err:
             self.recorder.event("no_normal", self.robot.time_s(), message=str(err))
             record.kind = "no_normal"
-            record.side_m = self.contact_pipeline.pad_centre(q, ObjectFrame.of_positioner(self.positioner))
+            if not isinstance(err, PressReleased):  # a released pad's place says nothing
+                record.side_m = self.contact_pipeline.pad_centre(q, ObjectFrame.of_positioner(self.positioner))
             return record
         record.kind = "contact"
         record.contact = measured.world

@@ -47,7 +47,8 @@ from pathlib import Path
 import numpy as np
 
 from explorer import outputs
-from explorer.contact import LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, wants_realign
+from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, PressReleased,
+                              wants_realign)
 from explorer.evaluation import jsonable
 from explorer.evidence import SurfaceEvidence
 from explorer.loop import LoopConfig
@@ -291,6 +292,8 @@ class SessionReplay:
             self.loop_config = replace(self.loop_config, side_contact_force_n=0.0)
         if "side_press_noise" not in recorded_loop:  # side presses added nothing to the GPIS then
             self.loop_config = replace(self.loop_config, side_press_noise=None)
+        if "drop_released_presses" not in recorded_loop:  # recorded before the release test
+            self.loop_config = replace(self.loop_config, drop_released_presses=False)
         doubt = (DoubtRule() if self.teleop else DoubtRule(-np.inf) if self.legacy_contacts
                  else self.loop_config.doubt_rule())
         self.pipeline = ContactPipeline(self.kinematics, self.pad, self.settling,
@@ -323,6 +326,8 @@ class SessionReplay:
         if self.truncated_files:
             notes.append("cut off mid-record (last incomplete line ignored): " + ", ".join(self.truncated_files))
         detector_config = self._detector_config(settings)
+        self.pipeline.release_threshold_pa = (detector_config.end_threshold_pa if self.loop_config.drop_released_presses
+                                              and not self.teleop else None)
         touches = []
         if self.teleop:
             detected = detect_presses(self.readings, detector_config)
@@ -458,9 +463,9 @@ class SessionReplay:
         q = self.joint_states.q[span.last].copy()
         try:
             measured = self.pipeline.measure(readings, touch.baseline_pa, q, frame, touch.approach_dir)
-        except NoContactMeasured:
+        except NoContactMeasured as err:
             touch.kind = "no_normal"
-            touch.side_m = self.pipeline.pad_centre(q, frame)
+            touch.side_m = None if isinstance(err, PressReleased) else self.pipeline.pad_centre(q, frame)
             return
         touch.contact = measured.world
         touch.position_m = measured.position_m

@@ -152,6 +152,32 @@ def test_a_press_that_reached_the_force_and_then_crept_is_a_contact():
         pipeline.measure(press_readings(Rotation.identity(), 1.1), BASELINE_PA, np.zeros(3), frame)
 
 
+@pytest.mark.parametrize("settled_n, released", [(0.06, True), (0.5, False)])
+def test_a_press_whose_pad_let_go_before_it_settled_is_no_contact(settled_n, released):
+    """Peak 1.6 N, then the pressure falls: below the detector's end threshold (50 Pa, the force of
+    PadResponse's inverse there) the contact was over when the orientation settled."""
+    from explorer.contact import NoContactMeasured, PressReleased
+
+    pad = PadCalibration(compliance_m_per_n=0.0, spring_stiffness_nm_per_rad=K_NM_PER_RAD)
+    kinematics = TiltedToolKinematics(np.array([0.0, 0.0, -PIVOT_TO_FACE_M]))
+    frame = ObjectFrame(np.eye(3), np.zeros(3))
+    peak, settled = press_readings(Rotation.identity(), 1.6)[:5], press_readings(Rotation.identity(), settled_n)
+    readings = peak + [dataclasses.replace(r, t_s=r.t_s + 0.05) for r in settled]
+    end_n = pad.force_model.force_estimate_n(50.0)
+    assert 0.06 < end_n < 0.5  # the two cases straddle the threshold
+    pipeline = ContactPipeline(kinematics, pad, release_threshold_pa=50.0)
+    if released:
+        with pytest.raises(PressReleased, match="let go"):
+            pipeline.measure(readings, BASELINE_PA, np.zeros(3), frame)
+        assert issubclass(PressReleased, NoContactMeasured)  # every caller already handles it
+    else:
+        assert pipeline.measure(readings, BASELINE_PA, np.zeros(3), frame).quality.force_n == pytest.approx(settled_n, abs=0.02)
+    # without the test (teleoperation, sessions recorded before it) the same press is a contact
+    assert ContactPipeline(kinematics, pad).measure(readings, BASELINE_PA, np.zeros(3), frame).quality.force_n < 1.0
+    with pytest.raises(ValueError, match="release_threshold_pa"):
+        ContactPipeline(kinematics, pad, release_threshold_pa=0.0)
+
+
 def test_the_doubt_rule_needs_both_the_rim_and_an_oblique_approach():
     rule = DoubtRule(rim_margin_m=0.006, approach_angle_rad=np.radians(10.0))
 

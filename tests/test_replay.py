@@ -230,3 +230,38 @@ def test_a_dip_below_the_end_threshold_mid_press_does_not_cut_the_contact(sphere
     assert not replayed.notes
     np.testing.assert_allclose(replayed.points_m, recorded_replay.points_m, rtol=0, atol=1e-9)
     np.testing.assert_allclose(replayed.normals, recorded_replay.normals, rtol=0, atol=1e-9)
+
+
+def test_a_press_that_let_go_is_replayed_as_no_contact_and_no_side_press(sphere_run):
+    """The run recorded the release test, so replay applies it at the detector's end threshold; a
+    press the pipeline finds released (forced here for the first contact) adds nothing to the GPIS,
+    neither a contact nor a side-press row. A session recorded before the test replays without it."""
+    from explorer.contact import PressReleased
+
+    replaying = SessionReplay(sphere_run.out_dir / "session")
+    assert replaying.loop_config.drop_released_presses
+    measure, calls = replaying.pipeline.measure, []
+
+    def release_the_first(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 1:
+            raise PressReleased("forced")
+        return measure(*args, **kwargs)
+
+    replaying.pipeline.measure = release_the_first
+    result = replaying.run(ReplaySettings(figures=False, side_presses=True))
+    assert replaying.pipeline.release_threshold_pa == replaying._detector_config(ReplaySettings()).end_threshold_pa
+    released = [t for t in result.touches if t.kind == "no_normal"]
+    assert len(released) == 1 and released[0].side_m is None
+    contacts = [r for r in sphere_run.records if r.kind == "contact"]
+    assert len(result.contacts) == len(contacts) - 1
+    assert result.gpis.n_rows == 4 * len(result.contacts)  # no side-press row for it
+
+    old = sphere_run.out_dir / "old-session"
+    shutil.copytree(sphere_run.out_dir / "session", old)
+    metadata = json.loads((old / "metadata.json").read_text())
+    del metadata["configuration"]["loop"]["drop_released_presses"]
+    (old / "metadata.json").write_text(json.dumps(metadata))
+    before = SessionReplay(old)
+    before.run(ReplaySettings(figures=False))
+    assert not before.loop_config.drop_released_presses and before.pipeline.release_threshold_pa is None
