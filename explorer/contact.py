@@ -346,7 +346,8 @@ class ContactPipeline:
             The orientation never settled, the pressure saturated, or (``DoubtRule.side_force_n``)
             the press met the pad's side.
         PressReleased
-            (``release_threshold_pa``) The pad had let go before its orientation settled.
+            (``release_threshold_pa``) The pad had let go before its orientation settled (tested
+            after the side test: a light press on the pad's side that let go stays one).
         """
         kin = self.kinematics
         pivot_pose = kin.forward_kinematics(q, link=kin.spec.pivot_link)
@@ -357,13 +358,6 @@ class ContactPipeline:
                                        alignment=self.pad.alignment)
         except (OrientationNotSettledError, ValueError) as err:  # ValueError: saturated, too few readings
             raise NoContactMeasured(str(err)) from err
-        if self.release_threshold_pa is not None:
-            released_n = self.force_estimate_n(self.release_threshold_pa)
-            if contact.force_n < released_n:
-                peak_n = self.force_estimate_n(max(r.pressure_pa for r in readings) - baseline_pa)
-                raise PressReleased(f"the pad had let go: {contact.force_n:.2f} N when its orientation settled "
-                                    f"(peak {peak_n:.2f} N), below the contact's end at "
-                                    f"{self.release_threshold_pa:.0f} Pa ({released_n:.2f} N)")
         load = pad_load(pivot_pose.rotation, contact.normal, contact.force_n, self.pad.spring_stiffness_nm_per_rad,
                         self.pad.half_width_m)
         touched = contact.position_m + (load.offset_m if self.centre_of_pressure else 0.0)
@@ -380,6 +374,13 @@ class ContactPipeline:
         if self.doubt.side_contact(quality):
             raise NoContactMeasured(f"the press reached {quality.peak_force_n:.2f} N with the pad turned "
                                     f"{np.degrees(load.tilt_rad):.1f} deg: the pad's side or corner, not its face")
+        # After the side test: a light press that let go is still one on the pad's side, whose place the GPIS uses.
+        if self.release_threshold_pa is not None:
+            released_n = self.force_estimate_n(self.release_threshold_pa)
+            if contact.force_n < released_n:
+                raise PressReleased(f"the pad had let go: {contact.force_n:.2f} N when its orientation settled "
+                                    f"(peak {quality.peak_force_n:.2f} N), below the contact's end at "
+                                    f"{self.release_threshold_pa:.0f} Pa ({released_n:.2f} N)")
         return MeasuredContact(contact, p_obj[0], normal, quality)
 
     def pad_centre(self, q: np.ndarray, frame: ObjectFrame) -> np.ndarray:

@@ -176,6 +176,13 @@ def test_a_press_whose_pad_let_go_before_it_settled_is_no_contact(settled_n, rel
     assert ContactPipeline(kinematics, pad).measure(readings, BASELINE_PA, np.zeros(3), frame).quality.force_n < 1.0
     with pytest.raises(ValueError, match="release_threshold_pa"):
         ContactPipeline(kinematics, pad, release_threshold_pa=0.0)
+    # a light press (0.6 N peak) that let go stays a press on the pad's side: its place is evidence
+    light = press_readings(Rotation.identity(), 0.6)[:5] + [dataclasses.replace(r, t_s=r.t_s + 0.05) for r in
+                                                           press_readings(Rotation.identity(), 0.0)]
+    sided = ContactPipeline(kinematics, pad, doubt=DoubtRule(side_force_n=1.3), release_threshold_pa=50.0)
+    with pytest.raises(NoContactMeasured, match="side or corner") as caught:
+        sided.measure(light, BASELINE_PA, np.zeros(3), frame)
+    assert not isinstance(caught.value, PressReleased)
 
 
 def test_the_doubt_rule_needs_both_the_rim_and_an_oblique_approach():
