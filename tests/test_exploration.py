@@ -21,6 +21,8 @@ def test_sphere_exploration_covers_and_reconstructs(sphere_run):
     assert m["position_rmse_mm"] < 1.0
     assert m["normal_rmse_deg"] < 6.0
     assert m["contact_normal_error_mean_deg"] < 8.0
+    # the closest face's normal lies in the normal cone, so the cone's error is never larger
+    assert m["contact_normal_error_mean_deg"] <= m["contact_normal_error_closest_face_mean_deg"] + 1e-9
     assert m["contact_position_error_rms_mm"] < 1.0
     assert m["coverage"] > 0.06  # 8 contacts with 1 cm discs on a 5 cm sphere: about 0.1
     assert m["reachable_fraction"] >= 0.9
