@@ -177,13 +177,17 @@ class MeshProximity:
             raise ValueError(f"tolerance must be a finite length >= 0, got {tolerance!r}")
         surface_points = np.asarray(surface_points, float).reshape(-1, 3)
         reach = tolerance + self._on_face_tolerance
-        out = []
-        for point, near in zip(surface_points, self._tree.query_ball_point(surface_points, self._rho_max + reach)):
-            near = np.asarray(near, dtype=np.int64)
-            tri = self._triangles[near]
-            on = closest_on_triangles(np.repeat(point[None], len(near), 0), tri[:, 0], tri[:, 1], tri[:, 2])
-            out.append(self._face_ids[near[np.linalg.norm(on - point, axis=1) <= reach]])
-        return out
+        return [self._face_ids[self._faces_within(point, reach)[0]] for point in surface_points]
+
+    def _faces_within(self, point: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+        """Faces (indices into the positive-area faces) passing within ``radius`` of one point, and
+        their closest points to it, (k,) and (k, 3). A face within ``radius`` has its centroid
+        within ``radius + rho_max``."""
+        near = np.asarray(self._tree.query_ball_point(point, radius + self._rho_max), dtype=np.int64)
+        tri = self._triangles[near]
+        on = closest_on_triangles(np.repeat(point[None], len(near), 0), tri[:, 0], tri[:, 1], tri[:, 2])
+        within = np.linalg.norm(on - point, axis=1) <= radius
+        return near[within], on[within]
 
     def normal_cone_error(self, points: np.ndarray, normals: np.ndarray,
                           tolerance: float = NORMAL_CONE_TOLERANCE) -> np.ndarray:
@@ -220,12 +224,9 @@ class MeshProximity:
         reach = tolerance + self._on_face_tolerance
         errors = np.empty(len(points))
         for i, (point, normal) in enumerate(zip(points, normals)):
-            near = np.asarray(self._tree.query_ball_point(point, distance[i] + reach + self._rho_max), dtype=np.int64)
-            tri = self._triangles[near]
-            on = closest_on_triangles(np.repeat(point[None], len(near), 0), tri[:, 0], tri[:, 1], tri[:, 2])
-            nearest = on[np.linalg.norm(on - point, axis=1) <= distance[i] + reach]
-            errors[i] = min(angle_to_cone(normal, self._normals[np.searchsorted(self._face_ids, faces)])
-                            for faces in self.faces_at(nearest, tolerance))
+            _, nearest = self._faces_within(point, distance[i] + reach)  # every (almost) closest point
+            errors[i] = min(angle_to_cone(normal, self._normals[self._faces_within(at, reach)[0]])
+                            for at in nearest)
         return errors
 
 
