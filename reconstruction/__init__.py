@@ -9,6 +9,8 @@ Public API:
   an option, not the default: BENCHMARKS.md, issue 10);
 * :func:`mesh_zero_level` (coarse-to-fine marching cubes of any implicit function);
 * :func:`confident_surface` (cut the faces where the posterior std of ``f`` is above a bound);
+* :func:`add_outside_evidence` (value rows where the mean puts solid well outside the contacts'
+  convex hull; ``GPIS.mesh`` applies it to a copy by default);
 * metrics: :func:`surface_error` (-> :class:`SurfaceError`), :func:`shape_metrics`,
   :func:`point_cloud_metrics` (-> :class:`ShapeMetrics`: Chamfer, F-score, normal consistency),
   :func:`contact_coverage`; :func:`surface_topology` (-> :class:`Topology`: parts, genus,
@@ -33,6 +35,7 @@ _LAZY = {
     "PartitionedGPIS": "reconstruction.partitioned_gpis",
     "mesh_zero_level": "reconstruction.meshing",
     "confident_surface": "reconstruction.confidence",
+    "add_outside_evidence": "reconstruction.outside_evidence",
     "SurfaceError": "reconstruction.metrics",
     "Topology": "reconstruction.topology",
     "surface_topology": "reconstruction.topology",

@@ -14,6 +14,7 @@ solve instead of a refit. The mean is evaluated in float32 from the float64 weig
 """
 from __future__ import annotations
 
+import copy
 import warnings
 from typing import Sequence
 
@@ -334,7 +335,7 @@ class GPIS:
         return VarianceTracker(self, candidates)
 
     def mesh(self, bounds: Sequence[Sequence[float]] | None = None, resolution: int = 64,
-             max_std_m: float | None = None):
+             max_std_m: float | None = None, outside_evidence: bool = True):
         """The mean surface (0-level set) as a ``trimesh.Trimesh`` with outward normals.
 
         Parameters
@@ -348,11 +349,22 @@ class GPIS:
             (metres), cutting phantom surface far from the contacts; faces near a contact are
             always kept (:func:`reconstruction.confidence.confident_surface`). The mesh is then
             open where it was cut. None (default) returns the closed 0-level set.
+        outside_evidence : bool
+            Mesh a copy that takes the space well outside the contacts' convex hull as free where
+            the mean still puts solid there (:mod:`reconstruction.outside_evidence`): removes
+            phantom lobes. Only with normals (the classic GPIS stays as the reference defines it);
+            this GPIS is not changed.
         """
         from reconstruction.confidence import mean_surface
 
         self._require_fit()
-        return mean_surface(self, self._region if bounds is None else _check_bounds(bounds), resolution, max_std_m)
+        model = self
+        if outside_evidence and self.use_normals:
+            from reconstruction.outside_evidence import add_outside_evidence
+
+            model = copy.deepcopy(self)
+            add_outside_evidence(model)
+        return mean_surface(model, self._region if bounds is None else _check_bounds(bounds), resolution, max_std_m)
 
     # ------------------------------------------------------------------ internals
     def _joint(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:

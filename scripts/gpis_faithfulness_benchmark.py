@@ -42,6 +42,7 @@ from objects.sampling import sample_surface
 from reconstruction.confidence import DEFAULT_MAX_STD_M
 from reconstruction.gpis import GPIS
 from reconstruction.metrics import shape_metrics
+from reconstruction.outside_evidence import add_outside_evidence
 from reconstruction.synthetic_contacts import sample_contacts
 from reconstruction.topology import surface_topology
 
@@ -98,6 +99,16 @@ METHODS = {"default": _current_default, "old-default": _old_default,
 CONFIDENT_BOUNDS_MM = {"confident": DEFAULT_MAX_STD_M * 1e3, "confident-1.5": 1.5, "confident-2.0": 2.0,
                        "confident-2.5": 2.5, "confident-3.0": 3.0}
 METHODS.update({name: _current_default for name in CONFIDENT_BOUNDS_MM})
+#: The default GPIS meshed without the outside evidence beyond the contacts' hull (the default
+#: before it, ``GPIS.mesh(outside_evidence=False)``; BENCHMARKS.md, issue 10).
+METHODS["no-outside-evidence"] = _current_default
+MESH_OPTIONS = {"no-outside-evidence": {"outside_evidence": False}}
+#: The outside evidence with other settings (the default's were chosen among these).
+EVIDENCE_VARIANTS = {"outside-evidence-0.5": dict(facet_fraction=0.5), "outside-evidence-1.0": dict(facet_fraction=1.0),
+                     "outside-evidence-open-any": dict(max_open_angle_rad=None),
+                     "outside-evidence-open-90": dict(max_open_angle_rad=float(np.radians(90.0)))}
+METHODS.update({name: _current_default for name in EVIDENCE_VARIANTS})
+MESH_OPTIONS.update({name: {"outside_evidence": False} for name in EVIDENCE_VARIANTS})
 
 
 def _partitioned(**kwargs):
@@ -176,10 +187,15 @@ def run_case(method: str, name: str, truth, n_contacts: int, draw: int, resoluti
     points, normals, _, _ = sample_contacts(truth, n_contacts, seed=seed)
     t0 = time.perf_counter()
     gp = METHODS[method](object_bounds(truth)).fit(points, normals)
+    if method in EVIDENCE_VARIANTS:
+        add_outside_evidence(gp, **EVIDENCE_VARIANTS[method])
     fit_s = time.perf_counter() - t0
     bound_mm = CONFIDENT_BOUNDS_MM.get(method)
     try:
-        mesh = gp.mesh(resolution=resolution, max_std_m=None if bound_mm is None else 1e-3 * bound_mm)
+        options = dict(MESH_OPTIONS.get(method, {}))
+        if bound_mm is not None:
+            options["max_std_m"] = 1e-3 * bound_mm
+        mesh = gp.mesh(resolution=resolution, **options)
         metrics = compare(mesh, truth, n_samples, seed)
     except ValueError as exc:  # no surface in the box: count as a failure, never drop it
         metrics = dict(rmse_mm=float("nan"), p99_mm=float("nan"), chamfer_mm=float("nan"),
