@@ -335,7 +335,7 @@ class GPIS:
         return VarianceTracker(self, candidates)
 
     def mesh(self, bounds: Sequence[Sequence[float]] | None = None, resolution: int = 64,
-             max_std_m: float | None = None, outside_evidence: bool = True):
+             max_std_m: float | None = None, outside_evidence: bool = False):
         """The mean surface (0-level set) as a ``trimesh.Trimesh`` with outward normals.
 
         Parameters
@@ -352,7 +352,9 @@ class GPIS:
         outside_evidence : bool
             Mesh a copy that takes the space well outside the contacts' convex hull as free where
             the mean still puts solid there (:mod:`reconstruction.outside_evidence`): removes
-            phantom lobes. Only with normals (the classic GPIS stays as the reference defines it);
+            phantom lobes past sparse rims when the contacts cover the object (100+ sampled
+            contacts), but wrecks the surface of sparsely touched objects (a sphere with 4-15
+            contacts: 13-22 mm), hence off by default (BENCHMARKS.md, issue 10). Only with normals;
             this GPIS is not changed.
         """
         from reconstruction.confidence import mean_surface
