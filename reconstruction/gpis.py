@@ -354,7 +354,7 @@ class GPIS:
             the mean still puts solid there (:mod:`reconstruction.outside_evidence`): removes
             phantom lobes past sparse rims when the contacts cover the object (100+ sampled
             contacts), but wrecks the surface of sparsely touched objects (a sphere with 4-15
-            contacts: 13-22 mm), hence off by default (BENCHMARKS.md, issue 10). Only with normals;
+            contacts: 8-19 mm), hence off by default (BENCHMARKS.md, issue 10). Only with normals;
             this GPIS is not changed.
         """
         from reconstruction.confidence import mean_surface
