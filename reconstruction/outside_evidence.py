@@ -101,10 +101,11 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
         outside = signed[np.arange(len(x)), facet]
         beyond = outside > min_margin_m
         x, outside, facet = x[beyond], outside[beyond], facet[beyond]
-        foot = x - outside[:, None] * planes[facet, :3]  # the point's foot on the hull's plane
         free = outside > np.maximum(facet_fraction * circumradius[facet], min_margin_m)
         if max_open_angle_rad is not None and free.any():
-            free[free] = _enclosed(foot[free], planes[facet[free], :3], contacts, tree, max_open_angle_rad)
+            normals = planes[facet[free], :3]
+            foot = x[free] - outside[free, None] * normals  # the point's foot on its facet's plane
+            free[free] = _enclosed(foot, normals, contacts, tree, max_open_angle_rad)
         points.append(x[free])
         distance.append(outside[free])
     if not points:

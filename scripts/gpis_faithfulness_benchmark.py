@@ -103,12 +103,12 @@ METHODS.update({name: _current_default for name in CONFIDENT_BOUNDS_MM})
 #: (``GPIS.mesh(outside_evidence=True)``, an option; BENCHMARKS.md, issue 10).
 METHODS["outside-evidence"] = _current_default
 MESH_OPTIONS = {"outside-evidence": {"outside_evidence": True}}
-#: The outside evidence with other settings (its defaults were chosen among these).
+#: The outside evidence with other settings, added to the fit before the plain mesh (its defaults
+#: were chosen among these).
 EVIDENCE_VARIANTS = {"outside-evidence-0.5": dict(facet_fraction=0.5), "outside-evidence-1.0": dict(facet_fraction=1.0),
                      "outside-evidence-open-any": dict(max_open_angle_rad=None),
                      "outside-evidence-open-90": dict(max_open_angle_rad=float(np.radians(90.0)))}
 METHODS.update({name: _current_default for name in EVIDENCE_VARIANTS})
-MESH_OPTIONS.update({name: {"outside_evidence": False} for name in EVIDENCE_VARIANTS})
 
 
 def _partitioned(**kwargs):

@@ -1,5 +1,7 @@
 """Outside evidence beyond the contacts' convex hull (reconstruction/outside_evidence.py, issue 10)."""
 
+import copy
+
 import numpy as np
 import pytest
 import trimesh
@@ -117,11 +119,9 @@ def test_the_default_mesh_is_the_plain_mean(lid):
 
 
 def test_evidence_rows_are_values_below_zero_at_free_space(lid):
-    import copy
-
     _, fitted = lid
     gp = copy.deepcopy(fitted)
-    points, distance = free_space_candidates(gp.contact_points, gp.region)
+    points, _ = free_space_candidates(gp.contact_points, gp.region)
     solid_before = np.count_nonzero(gp.mean(points) > 0)
     added = add_outside_evidence(gp)
     assert solid_before > 0 and added > 0
@@ -136,7 +136,7 @@ def test_a_densely_touched_sphere_gets_no_evidence():
     gp = GPIS(bounds=((-0.07,) * 3, (0.07,) * 3)).fit(points, normals)
     # Nothing of the fitted surface is further than the margin outside the contacts' hull, so the
     # mesh is the plain one, face for face.
-    assert add_outside_evidence(GPIS(bounds=((-0.07,) * 3, (0.07,) * 3)).fit(points, normals)) == 0
+    assert add_outside_evidence(copy.deepcopy(gp)) == 0
     assert np.array_equal(gp.mesh(resolution=32, outside_evidence=True).faces, gp.mesh(resolution=32).faces)
 
 
