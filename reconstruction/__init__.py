@@ -10,7 +10,7 @@ Public API:
 * :func:`mesh_zero_level` (coarse-to-fine marching cubes of any implicit function);
 * :func:`confident_surface` (cut the faces where the posterior std of ``f`` is above a bound);
 * :func:`add_outside_evidence` (value rows where the mean puts solid well outside the contacts'
-  convex hull; ``GPIS.mesh(outside_evidence=True)`` applies it to a copy; an option);
+  convex hull and tangent planes; ``GPIS.mesh()`` applies it to a copy by default);
 * metrics: :func:`surface_error` (-> :class:`SurfaceError`), :func:`shape_metrics`,
   :func:`point_cloud_metrics` (-> :class:`ShapeMetrics`: Chamfer, F-score, normal consistency),
   :func:`contact_coverage`; :func:`surface_topology` (-> :class:`Topology`: parts, genus,

@@ -335,7 +335,7 @@ class GPIS:
         return VarianceTracker(self, candidates)
 
     def mesh(self, bounds: Sequence[Sequence[float]] | None = None, resolution: int = 64,
-             max_std_m: float | None = None, outside_evidence: bool = False):
+             max_std_m: float | None = None, outside_evidence: bool = True):
         """The mean surface (0-level set) as a ``trimesh.Trimesh`` with outward normals.
 
         Parameters
@@ -350,12 +350,11 @@ class GPIS:
             always kept (:func:`reconstruction.confidence.confident_surface`). The mesh is then
             open where it was cut. None (default) returns the closed 0-level set.
         outside_evidence : bool
-            Mesh a copy that takes the space well outside the contacts' convex hull as free where
-            the mean still puts solid there (:mod:`reconstruction.outside_evidence`): removes
-            phantom lobes past sparse rims when the contacts cover the object (100+ sampled
-            contacts), but wrecks the surface of sparsely touched objects (a sphere with 4-15
-            contacts: 8-19 mm), hence off by default (BENCHMARKS.md, issue 10). Only with normals;
-            this GPIS is not changed.
+            Mesh a copy that takes the space well outside both the contacts' convex hull and
+            their tangent planes as free where the mean still puts solid there
+            (:mod:`reconstruction.outside_evidence`): removes phantom lobes past sparse rims, and
+            leaves a convex object's surface alone however few its contacts (BENCHMARKS.md,
+            issue 10). Only with normals; this GPIS is not changed. False: the plain mean.
         """
         from reconstruction.confidence import mean_surface
 

@@ -99,15 +99,19 @@ METHODS = {"default": _current_default, "old-default": _old_default,
 CONFIDENT_BOUNDS_MM = {"confident": DEFAULT_MAX_STD_M * 1e3, "confident-1.5": 1.5, "confident-2.0": 2.0,
                        "confident-2.5": 2.5, "confident-3.0": 3.0}
 METHODS.update({name: _current_default for name in CONFIDENT_BOUNDS_MM})
-#: The default GPIS meshed with the outside evidence beyond the contacts' hull
-#: (``GPIS.mesh(outside_evidence=True)``, an option; BENCHMARKS.md, issue 10).
-METHODS["outside-evidence"] = _current_default
-MESH_OPTIONS = {"outside-evidence": {"outside_evidence": True}}
+#: The default GPIS meshed without the outside evidence beyond the contacts' hull (the plain mean,
+#: ``GPIS.mesh(outside_evidence=False)``; BENCHMARKS.md, issue 10).
+METHODS["no-outside-evidence"] = _current_default
+MESH_OPTIONS = {"no-outside-evidence": {"outside_evidence": False}}
 #: The outside evidence with other settings, added to the fit before the plain mesh (its defaults
 #: were chosen among these).
-EVIDENCE_VARIANTS = {"outside-evidence-0.5": dict(facet_fraction=0.5), "outside-evidence-1.0": dict(facet_fraction=1.0),
+EVIDENCE_VARIANTS = {"outside-evidence-0.0": dict(facet_fraction=0.0), "outside-evidence-0.25": dict(facet_fraction=0.25),
+                     "outside-evidence-0.5": dict(facet_fraction=0.5), "outside-evidence-1.0": dict(facet_fraction=1.0),
                      "outside-evidence-open-any": dict(max_open_angle_rad=None),
-                     "outside-evidence-open-90": dict(max_open_angle_rad=float(np.radians(90.0)))}
+                     "outside-evidence-open-90": dict(max_open_angle_rad=float(np.radians(90.0))),
+                     "outside-evidence-no-tangent": dict(tangent_margin_m=None),
+                     "outside-evidence-tilt-0": dict(normal_tolerance_rad=0.0),
+                     "outside-evidence-tilt-25": dict(normal_tolerance_rad=float(np.radians(25.0)))}
 METHODS.update({name: _current_default for name in EVIDENCE_VARIANTS})
 
 
@@ -192,7 +196,7 @@ def run_case(method: str, name: str, truth, n_contacts: int, draw: int, resoluti
     fit_s = time.perf_counter() - t0
     bound_mm = CONFIDENT_BOUNDS_MM.get(method)
     try:
-        options = dict(MESH_OPTIONS.get(method, {}))
+        options = dict(MESH_OPTIONS.get(method, {"outside_evidence": method not in EVIDENCE_VARIANTS}))
         if bound_mm is not None:
             options["max_std_m"] = 1e-3 * bound_mm
         mesh = gp.mesh(resolution=resolution, **options)
