@@ -46,9 +46,8 @@ DEFAULT_MIN_MARGIN_M = 4.0e-3
 #: directions to its nearest ``ENCLOSURE_NEIGHBOURS`` contacts, radians.
 DEFAULT_MAX_OPEN_ANGLE_RAD = float(np.radians(120.0))
 ENCLOSURE_NEIGHBOURS = 8
-#: ... and only ahead of a nearby contact's tangent plane by more than this, metres: a few times
-#: the contact noise along the normal, so that a normal a few degrees off does not make a point
-#: behind a convex surface look ahead of it.
+#: ... and only ahead of some contact's tangent plane by more than this, metres: a few times the
+#: contacts' position noise along the normal.
 DEFAULT_TANGENT_MARGIN_M = 2.0e-3
 #: ... with each plane tilted by up to this angle, the normal's error (the sensor's is 7 deg on
 #: average, more on steep surfaces), radians.
@@ -123,8 +122,7 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
     tree = cKDTree(contacts)
     lo, hi = (np.asarray(b, float) for b in box)
     spacing = max(GRID_SPACING_M, float(np.max(hi - lo)) / GRID_CELLS)
-    # cell centres, counted rather than stepped to, so that none lies on or past the box's face
-    axes = [a + spacing * (np.arange(max(int(np.floor((b - a) / spacing)), 1)) + 0.5) for a, b in zip(lo, hi)]
+    axes = [_cell_centres(a, b, spacing) for a, b in zip(lo, hi)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
     points, distance = [], []
     for start in range(0, len(grid), _CHUNK):
@@ -147,6 +145,13 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
     if not points:
         return empty
     return np.concatenate(points), np.concatenate(distance)
+
+
+def _cell_centres(lo: float, hi: float, spacing: float) -> np.ndarray:
+    """Centres of the whole cells of ``spacing`` from ``lo`` (the middle if none fits): counted, not
+    stepped to, so that no centre falls a rounding error past ``hi``."""
+    count = int(np.floor((hi - lo) / spacing))
+    return lo + spacing * (np.arange(count) + 0.5) if count else np.array([0.5 * (lo + hi)])
 
 
 def _enclosed(feet: np.ndarray, normals: np.ndarray, contacts: np.ndarray, tree, max_open_angle_rad: float,

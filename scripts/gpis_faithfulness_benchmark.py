@@ -105,7 +105,7 @@ METHODS["no-outside-evidence"] = _current_default
 MESH_OPTIONS = {"no-outside-evidence": {"outside_evidence": False}}
 #: The outside evidence with other settings, added to the fit before the plain mesh (its defaults
 #: were chosen among these).
-EVIDENCE_VARIANTS = {"outside-evidence-0.0": dict(facet_fraction=0.0), "outside-evidence-0.25": dict(facet_fraction=0.25),
+EVIDENCE_VARIANTS = {"outside-evidence-0.25": dict(facet_fraction=0.25),
                      "outside-evidence-0.5": dict(facet_fraction=0.5), "outside-evidence-1.0": dict(facet_fraction=1.0),
                      "outside-evidence-open-any": dict(max_open_angle_rad=None),
                      "outside-evidence-open-90": dict(max_open_angle_rad=float(np.radians(90.0))),
