@@ -176,16 +176,12 @@ def _ahead_of_a_tangent_plane(points: np.ndarray, contacts: np.ndarray, normals:
     """Whether each point lies ahead of some contact's tangent plane by more than ``margin_m``,
     with the plane tilted by up to ``tolerance_rad`` either way: outside the intersection of the
     contacts' tangent half-spaces, which holds a convex object."""
+    from scipy.spatial.distance import cdist
+
     offsets = np.einsum("ij,ij->i", contacts, normals)
     sine = np.sin(tolerance_rad)
-    ahead = []
-    for s in range(0, len(points), 2000):
-        x = points[s:s + 2000]
-        along = x @ normals.T - offsets
-        distance = np.sqrt(np.maximum(np.sum(x**2, axis=1)[:, None] - 2 * x @ contacts.T
-                                      + np.sum(contacts**2, axis=1)[None, :], 0.0))
-        ahead.append(np.any(along - margin_m > sine * distance, axis=1))
-    return np.concatenate(ahead)
+    return np.concatenate([np.any(x @ normals.T - offsets - margin_m > sine * cdist(x, contacts), axis=1)
+                           for x in (points[s:s + 2000] for s in range(0, len(points), 2000))])
 
 
 def add_outside_evidence(gpis, facet_fraction: float = DEFAULT_FACET_FRACTION,

@@ -113,6 +113,7 @@ EVIDENCE_VARIANTS = {"outside-evidence-0.25": dict(facet_fraction=0.25),
                      "outside-evidence-tilt-0": dict(normal_tolerance_rad=0.0),
                      "outside-evidence-tilt-25": dict(normal_tolerance_rad=float(np.radians(25.0)))}
 METHODS.update({name: _current_default for name in EVIDENCE_VARIANTS})
+MESH_OPTIONS.update({name: {"outside_evidence": False} for name in EVIDENCE_VARIANTS})  # rows already added
 
 
 def _partitioned(**kwargs):
@@ -196,7 +197,7 @@ def run_case(method: str, name: str, truth, n_contacts: int, draw: int, resoluti
     fit_s = time.perf_counter() - t0
     bound_mm = CONFIDENT_BOUNDS_MM.get(method)
     try:
-        options = dict(MESH_OPTIONS.get(method, {"outside_evidence": method not in EVIDENCE_VARIANTS}))
+        options = dict(MESH_OPTIONS.get(method, {}))
         if bound_mm is not None:
             options["max_std_m"] = 1e-3 * bound_mm
         mesh = gp.mesh(resolution=resolution, **options)
