@@ -57,6 +57,7 @@ def run_settings(config: BackendConfig) -> RunSettings:
     return RunSettings(object=object_name(config), robot=config.robot.spec, strategy=exploration.strategy,
                        touches=exploration.touches, seed=exploration.seed, use_normals=exploration.use_normals,
                        eval_every=exploration.eval_every, mesh_resolution=exploration.mesh_resolution,
+                       reach_samples=exploration.reach_samples,
                        profile=config.simulation.profile if config.robot.backend == "sim" else "none",
                        planner=PlannerConfig(probe_depth_m=exploration.probe_depth_m))
 

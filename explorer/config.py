@@ -26,6 +26,7 @@ and roughly where, and the exploration settings, from a TOML or JSON file.
     touches = 50
     strategy = "variance"
     probe_depth_m = 0.15                # how far past its target a touch may go before it is a miss
+    reach_samples = 64                  # reach_breakdown's surface samples (0 skips it: 0.5 s each unreachable)
 
     [simulation]                        # backend = "sim" only
     profile = "hardware-like"           # ideal | datasheet-noise (default) | hardware-like | a .toml file
@@ -285,6 +286,11 @@ class ExplorationConfig:
         Evaluate against the reference every this many touches (0: never).
     mesh_resolution : int
         Marching-cubes grid of the final mesh.
+    reach_samples : int
+        Surface samples of the reference sorted by why they were (not) touched
+        (``metrics.json``'s ``reach_breakdown``); each asks the planner for up to a few IK solves,
+        about 0.5 s where the arm cannot reach. 0 skips it (``python -m scripts.reach_report``
+        computes it afterwards).
     probe_depth_m : float
         How far past its target a touch may probe before it counts as a miss, metres
         (:class:`explorer.planner.PlannerConfig`).
@@ -296,6 +302,7 @@ class ExplorationConfig:
     use_normals: bool = True
     eval_every: int = 5
     mesh_resolution: int = 96
+    reach_samples: int = 64
     probe_depth_m: float = 0.15  # PlannerConfig's default (a test ties the two; not imported: kept light)
 
     def __post_init__(self) -> None:
@@ -308,6 +315,7 @@ class ExplorationConfig:
             raise _fail("exploration.use_normals", f"expected true or false, got {self.use_normals!r}")
         set_(self, "eval_every", _integer("exploration.eval_every", self.eval_every, 0))
         set_(self, "mesh_resolution", _integer("exploration.mesh_resolution", self.mesh_resolution, 8, 512))
+        set_(self, "reach_samples", _integer("exploration.reach_samples", self.reach_samples, 0))
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ TOUCH_EVENT_KINDS = ("touch", "miss", "realign", "unreachable", "blocked", "no_n
 RESUME_GAP_S = 1.0
 
 #: Settings a resumed run may change: the budget and how results are evaluated and drawn.
-CHANGEABLE_SETTINGS = frozenset({"touches", "gui", "eval_every", "mesh_resolution"})
+CHANGEABLE_SETTINGS = frozenset({"touches", "gui", "eval_every", "mesh_resolution", "reach_samples"})
 
 #: Settings older sessions recorded in another place: (section, key) then -> (section, key) now.
 #: A resumed run compares the recorded value with the one at its new place.

@@ -66,6 +66,7 @@ class RunSettings:
     gui: bool = False
     eval_every: int = ExplorationConfig.eval_every
     mesh_resolution: int = ExplorationConfig.mesh_resolution
+    reach_samples: int = ExplorationConfig.reach_samples
     loop: LoopConfig = field(default_factory=LoopConfig)
     planner: PlannerConfig = field(default_factory=PlannerConfig)
 
@@ -302,12 +303,13 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
         if mesh is not None:
             recorder.reconstruction(mesh, gpis.n_contacts, recorder.latest_time_s)
         add_errors(metrics, mesh, truth, contacts, normals)
-        if truth is not None:
-            steps = 64
+        if truth is not None and settings.reach_samples > 0:
+            steps = settings.reach_samples
             report = None if status is None else (lambda done: status("reachable fraction", done, steps))
             reach = reach_breakdown(truth, contacts, planner, n_samples=steps, seed=settings.seed, progress=report)
             metrics["reachable_fraction"] = reach.reachable
             metrics["reach_breakdown"] = reach.as_dict()
+        if truth is not None:
             metrics["coverage_ceiling"] = coverage_ceiling(truth, len(contacts))
         if mesh is not None:
             curve_points = [(c["touches"], c["position_rmse_mm"], c["normal_rmse_deg"]) for c in metrics["error_curve"]]

@@ -53,10 +53,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--probe-depth", type=float_above(0.0, inclusive=True), metavar="MM",
                         help="how far past its target a touch may probe before it is a miss, mm (default 150; "
                              "a configuration file's exploration.probe_depth_m)")
+    parser.add_argument("--reach-samples", type=int_at_least(0), metavar="N",
+                        help="surface samples of metrics.json's reach_breakdown (default 64; 0 skips it, "
+                             "python -m scripts.reach_report computes it later; exploration.reach_samples)")
     add_rerun_argument(parser)
     args = parser.parse_args(argv)
-    overrides = {k: v for k, v in dict(strategy=args.strategy, touches=args.touches, seed=args.seed).items()
-                 if v is not None}
+    overrides = {k: v for k, v in dict(strategy=args.strategy, touches=args.touches, seed=args.seed,
+                                       reach_samples=args.reach_samples).items() if v is not None}
     if args.no_normals:
         overrides["use_normals"] = False
     if args.probe_depth is not None:

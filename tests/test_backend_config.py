@@ -63,6 +63,7 @@ def test_every_example_config_loads(name):
     ({"exploration": {"touches": 0}}, r"exploration\.touches: 0 must be >= 1"),
     ({"exploration": {"strategy": "greedy"}}, r"exploration\.strategy: 'greedy' is not one of"),
     ({"exploration": {"use_normals": "yes"}}, r"exploration\.use_normals: expected true or false"),
+    ({"exploration": {"reach_samples": -1}}, r"exploration\.reach_samples: -1 must be >= 0"),
     ({"exploration": {"touchs": 5}}, r"exploration\.touchs: unknown key \(did you mean 'touches'\?\)"),
     ({"emulation": {"sphere_radius_m": 0}}, r"emulation\.sphere_radius_m: expected a positive number"),
     ({"robot": {"backend": "serial"}}, r"robot\.port: required when robot\.backend = 'serial'"),

@@ -49,6 +49,7 @@ def snapshot(directory):
     (["--robot", "r2d2"], "--robot: unknown robot 'r2d2'; choose one of"),
     (["--strategy", "greedy"], "argument --strategy: invalid choice"),
     (["--probe-depth", "-5"], "argument --probe-depth: must be a finite number >= 0, got -5"),
+    (["--reach-samples", "-1"], "argument --reach-samples: must be at least 0, got -1"),
 ])
 def test_explore_refuses_bad_arguments_before_anything_is_written(tmp_path, capsys, args, message):
     from scripts.explore import main

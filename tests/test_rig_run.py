@@ -18,7 +18,7 @@ RADIUS_M = 0.04
 OFFSET_M = (0.004, -0.003, 0.002)
 
 
-def _dry_run_config(tmp_path, touches):
+def _dry_run_config(tmp_path, touches, reach_samples=8):
     path = tmp_path / "dry_run.toml"
     path.write_text(f"""
 [robot]
@@ -34,6 +34,7 @@ sphere_offset_m = {list(OFFSET_M)}
 touches = {touches}
 eval_every = 0
 mesh_resolution = 24
+reach_samples = {reach_samples}
 """)
     return path
 
@@ -51,10 +52,13 @@ def test_the_command_explores_an_emulated_rig_and_resumes_it(tmp_path, one_torch
     assert np.all(np.abs(np.linalg.norm(points - centre, axis=1) - RADIUS_M) < 1.5e-3)
     assert np.all(np.degrees(np.arccos(np.clip(np.sum(normals * radial, axis=1), -1, 1))) < 5.0)
     assert "position_rmse_mm" in first  # the emulated sphere is the reference surface
+    assert first["reach_breakdown"]["samples"] == 8  # the configuration's, not the default 64
 
-    assert explore_main(["--config", str(config), "--out", str(out), "--resume", "--touches", "5"]) == 0
+    assert explore_main(["--config", str(config), "--out", str(out), "--resume", "--touches", "5",
+                         "--reach-samples", "4"]) == 0
     resumed = json.loads((out / "metrics.json").read_text())
     assert resumed["touches"] == 5 and resumed["completed"]
+    assert resumed["reach_breakdown"]["samples"] == 4  # the flag over the file; an evaluation setting may change
     after, _ = read_contacts_csv(out / "contacts.csv")
     np.testing.assert_array_equal(after[:len(points)], points)
     session = read_session(out / "session")
@@ -84,7 +88,8 @@ def test_hardware_without_the_objects_size_is_refused_before_opening_a_device():
 def test_a_simulated_rig_from_a_configuration_keeps_the_object_in_place(tmp_path, one_torch_thread):
     config = config_from_dict({"robot": {"backend": "sim"}, "sensor": {"backend": "sim"},
                                "object": {"name": "sphere", "centre_m": [0.36, -0.32, 0.92]},
-                               "exploration": {"touches": 3, "eval_every": 0, "mesh_resolution": 24}})
+                               "exploration": {"touches": 3, "eval_every": 0, "mesh_resolution": 24,
+                                               "reach_samples": 0}})
     with open_rig(config) as rig:
         assert rig.positioner.poses == (rig.positioner.pose(),)
         np.testing.assert_allclose(rig.positioner.centre_m, [0.36, -0.32, 0.92])
@@ -95,3 +100,4 @@ def test_a_simulated_rig_from_a_configuration_keeps_the_object_in_place(tmp_path
     for record in contacts:
         assert abs(np.linalg.norm(record.position_m) - radius) < 1.5e-3
     assert result.metrics["backend"] == "robot sim, sensor sim"
+    assert "reach_breakdown" not in result.metrics and "coverage_ceiling" in result.metrics  # skipped: 0 samples
