@@ -30,7 +30,7 @@ def last_line(err: str) -> str:
 def recorded_run(tmp_path_factory):
     """A finished 2-touch sphere run (session, contacts.csv, metrics.json, reconstruction.ply)."""
     out = tmp_path_factory.mktemp("recorded") / "run"
-    explore(RunSettings(object="sphere", touches=2, eval_every=0, mesh_resolution=24), out)
+    explore(RunSettings(object="sphere", touches=2, eval_every=0, mesh_resolution=24, reach_samples=0), out)
     return out
 
 

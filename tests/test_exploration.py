@@ -43,9 +43,9 @@ def test_outputs_are_written_in_the_object_frame(sphere_run):
 
 
 def test_runs_are_reproducible_from_the_seed(tmp_path):
-    a = explore(RunSettings(object="sphere", touches=3, seed=5, eval_every=0, mesh_resolution=32),
+    a = explore(RunSettings(object="sphere", touches=3, seed=5, eval_every=0, mesh_resolution=32, reach_samples=0),
                 tmp_path / "a")
-    b = explore(RunSettings(object="sphere", touches=3, seed=5, eval_every=0, mesh_resolution=32),
+    b = explore(RunSettings(object="sphere", touches=3, seed=5, eval_every=0, mesh_resolution=32, reach_samples=0),
                 tmp_path / "b")
     # the same seed on the same machine: the same bytes (README, "Reproducible")
     assert len(read_contacts_csv(a.out_dir / "contacts.csv")[0]) >= 1
@@ -63,7 +63,7 @@ def test_an_interrupted_run_keeps_every_contact(tmp_path):
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        explore(RunSettings(object="box", touches=10, seed=1, eval_every=0, mesh_resolution=32),
+        explore(RunSettings(object="box", touches=10, seed=1, eval_every=0, mesh_resolution=32, reach_samples=0),
                 tmp_path, interrupt_after_three)
     points, _ = read_contacts_csv(tmp_path / "contacts.csv")
     assert len(points) == sum(r.kind == "contact" for r in seen) >= 1

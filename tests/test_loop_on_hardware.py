@@ -187,7 +187,8 @@ def test_a_device_failing_mid_run_stops_the_arm_keeps_the_records_and_the_run_re
     from explorer.session import read_session
 
     centre = np.asarray(spec.workspace_center_m, dtype=float)
-    settings = RunSettings(object="virtual sphere", robot=spec.name, touches=6, eval_every=0, mesh_resolution=24)
+    settings = RunSettings(object="virtual sphere", robot=spec.name, touches=6, eval_every=0, mesh_resolution=24,
+                           reach_samples=0)
     emulated, rig = _rig_for_run(spec, kinematics, centre)
     finished = []
 
@@ -242,7 +243,8 @@ def test_the_calibrated_imu_mounting_is_applied_to_the_measured_normals(spec, ki
 
     mounting = wxyz_from_rotation(Rotation.from_euler("x", 12.0, degrees=True))
     centre = np.asarray(spec.workspace_center_m, dtype=float)
-    settings = RunSettings(object="virtual sphere", robot=spec.name, touches=3, eval_every=0, mesh_resolution=24)
+    settings = RunSettings(object="virtual sphere", robot=spec.name, touches=3, eval_every=0, mesh_resolution=24,
+                           reach_samples=0)
     errors = {}
     for name, alignment in (("uncalibrated", None), ("calibrated", ImuAlignment(body_in_imu_wxyz=tuple(mounting)))):
         emulated = emulated_rig(spec, VirtualSphere(centre, RADIUS_M), kinematics=kinematics,

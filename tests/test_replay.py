@@ -14,7 +14,7 @@ from explorer.session import read_session
 @pytest.fixture(scope="module")
 def sphere_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("recorded")
-    return explore(RunSettings(object="sphere", touches=5, seed=0, eval_every=0, mesh_resolution=32), out)
+    return explore(RunSettings(object="sphere", touches=5, seed=0, eval_every=0, mesh_resolution=32, reach_samples=0), out)
 
 
 @pytest.fixture(scope="module")
@@ -145,7 +145,7 @@ def test_replay_with_the_recorded_settings_keeps_the_realign_repeats_the_loop_ke
 
     strict = LoopConfig(realign_angle_rad=float(np.radians(0.5)), max_realign_fraction=1.0,
                         doubt_rim_margin_m=1.0, doubt_approach_angle_rad=float(np.radians(0.5)))
-    run = explore(RunSettings(object="sphere", touches=4, eval_every=0, mesh_resolution=24, loop=strict), tmp_path)
+    run = explore(RunSettings(object="sphere", touches=4, eval_every=0, mesh_resolution=24, reach_samples=0, loop=strict), tmp_path)
     kinds = [r.kind for r in run.records]
     assert "realign" in kinds, kinds
     result = SessionReplay(run.out_dir).run(ReplaySettings(figures=False))

@@ -13,7 +13,7 @@ from explorer.session import read_session
 @pytest.fixture(scope="module")
 def sphere_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("recorded")
-    return explore(RunSettings(object="sphere", touches=3, seed=1, eval_every=0, mesh_resolution=24), out)
+    return explore(RunSettings(object="sphere", touches=3, seed=1, eval_every=0, mesh_resolution=24, reach_samples=0), out)
 
 
 def test_recorded_press_spans_are_the_dense_joint_state_runs(sphere_run):

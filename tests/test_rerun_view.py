@@ -50,7 +50,7 @@ def logged_run(rr, tmp_path_factory):
 
     out = tmp_path_factory.mktemp("rerun")
     observer = RerunObserver(open_stream(out / "run.rrd"), surface_every=1)
-    result = explore(RunSettings(object="sphere", touches=4, seed=0, eval_every=0, mesh_resolution=32),
+    result = explore(RunSettings(object="sphere", touches=4, seed=0, eval_every=0, mesh_resolution=32, reach_samples=0),
                      out / "run", observer=observer)
     return out, result
 

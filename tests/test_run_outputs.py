@@ -12,7 +12,7 @@ from explorer import outputs
 from explorer.run import RunSettings, explore
 from explorer.session import read_session
 
-SPHERE = dict(object="sphere", mesh_resolution=24)
+SPHERE = dict(object="sphere", mesh_resolution=24, reach_samples=0)  # no reach breakdown: 9 s each
 
 
 @pytest.fixture(scope="module")
@@ -67,7 +67,7 @@ def test_ctrl_c_while_the_outputs_are_written_keeps_the_metrics_and_closes_the_s
 
     monkeypatch.setattr(explorer.run, "reach_breakdown", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        explore(RunSettings(touches=2, eval_every=0, **SPHERE), tmp_path,
+        explore(RunSettings(touches=2, eval_every=0, **dict(SPHERE, reach_samples=64)), tmp_path,
                 status=lambda step, done, total: steps.append((step, done, total)))
     assert steps == [("reachable fraction", 1, 64)]
     metrics = json.loads((tmp_path / "metrics.json").read_text())
