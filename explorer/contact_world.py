@@ -187,8 +187,9 @@ class ContactWorld:
     def pad_state(self, q: np.ndarray) -> TouchState:
         """Pad pose, force and pressure for joint angles ``q`` ((dof,) radians), without touching the chips."""
         spec = self.kinematics.spec
-        pivot = self.kinematics.forward_kinematics(q, link=spec.pivot_link).position_m
-        commanded = self.kinematics.forward_kinematics(q, link=spec.sensor_body_link).rotation
+        # one configuration per control tick: the numpy path, not the batched torch one (ms per call)
+        pivot, _ = self.kinematics.pose_of_one(q, spec.pivot_link)
+        _, commanded = self.kinematics.pose_of_one(q, spec.sensor_body_link)
         free_pad = pivot + commanded @ self._pivot_to_pad
         t_s = self.clock.monotonic()
         free = TouchState(t_s, free_pad, commanded, 0.0, 0.0, self.ambient_pa, None)
