@@ -11,7 +11,7 @@ and at the end (also after an interruption, from what was recorded):
 * ``metrics.json``       errors against the ground truth, touches, misses, blocked moves
                          (``blocked_moves``: protective stops by phase and by what the arm met),
                          coverage, times, and with a
-                         ground truth ``reach_breakdown`` (:class:`explorer.coverage.ReachBreakdown`:
+                         ground truth (and ``reach_samples`` > 0) ``reach_breakdown`` (:class:`explorer.coverage.ReachBreakdown`:
                          surface fractions where the pad does not fit, the arm cannot reach, the stand
                          hides it, reachable but untouched, touched), ``reachable_fraction`` and
                          ``coverage_ceiling`` (the most coverage the run's contacts could give);
