@@ -14,8 +14,9 @@ from explorer.sweep import (SweepConfig, is_complete, plan_runs, read_csv, run_i
 from explorer.sweep.plan import prepare_sweep_dir
 from scripts.sweep import main as sweep_main
 
-# Tiny runs (about 8 s each): 4 touches evaluated at touch 4 (the error curve needs 4 contacts).
-TINY = dict(strategies=("random",), seeds=(0, 1), touches=4, eval_every=2, mesh_resolution=24)
+# Tiny runs (about 8 s each): 4 touches evaluated at touch 4 (the error curve needs 4 contacts),
+# no reach breakdown (it would double that).
+TINY = dict(strategies=("random",), seeds=(0, 1), touches=4, eval_every=2, mesh_resolution=24, reach_samples=0)
 SPHERE_RUNS = ("sphere-random-normals-seed0", "sphere-random-normals-seed1")
 BROKEN_RUNS = ("broken-random-normals-seed0", "broken-random-normals-seed1")
 
@@ -49,6 +50,8 @@ def test_a_failing_run_is_recorded_and_the_others_finish(pool_sweep):
         assert 0 < rows[name]["position_rmse_mm"] < 3.0
         assert 0 < rows[name]["chamfer_l1_mm"] < 3.0 and 0 < rows[name]["fscore_5mm"] <= 1.0
         assert rows[name]["touches_to_3mm"] == 4
+        metrics = json.loads((report.out_dir / "runs" / name / "metrics.json").read_text())
+        assert "reach_breakdown" not in metrics  # the sweep's reach_samples=0 reached the run
     for name in BROKEN_RUNS:
         assert not rows[name]["completed"]
         assert rows[name]["error"].startswith("ValueError") and "broken.stl" in rows[name]["error"]
@@ -138,6 +141,7 @@ def test_the_command_line_rejects_bad_arguments(tmp_path, capsys):
                           (["--objects", "teapot"], "unknown object 'teapot'"),
                           (["--seeds", "0"], "--seeds must be at least 1"),
                           (["--first-seed", "-1"], "--first-seed must be >= 0"),
+                          (["--reach-samples", "-1"], "--reach-samples must be at least 0, got -1"),
                           (["--objects", "sphere,,box"], "empty name")):
         with pytest.raises(SystemExit) as exit_info:
             sweep_main(args + ["--out", str(tmp_path)])
@@ -156,6 +160,8 @@ def test_the_plan_covers_the_grid_with_one_directory_per_run():
     settings = runs[-1].settings(config)
     assert (settings.object, settings.strategy, settings.use_normals, settings.seed, settings.touches) == (
         "box", "variance", False, 2, 50)
+    assert settings.reach_samples == 64
+    assert runs[0].settings(SweepConfig(**{**config.__dict__, "reach_samples": 0})).reach_samples == 0
 
 
 @pytest.mark.parametrize("change, message", [
@@ -167,6 +173,7 @@ def test_the_plan_covers_the_grid_with_one_directory_per_run():
     (dict(objects="sphere"), "objects must be a non-empty sequence"),
     (dict(touches=0), "touches must be an integer >= 1"),
     (dict(normals=(1,)), "normals must be booleans"),
+    (dict(reach_samples=-1), "reach_samples must be an integer >= 0"),
 ])
 def test_bad_sweep_configurations_are_refused(change, message):
     arguments = dict(objects=("sphere",), strategies=("random",), seeds=(0,)) | change

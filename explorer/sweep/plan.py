@@ -46,6 +46,9 @@ class SweepConfig:
         to every run (:mod:`explorer.arm_calibration`); its robot, profile and seed must be the sweep's.
     probe_depth_m : float
         How far past its target a touch may probe, metres (:class:`explorer.planner.PlannerConfig`).
+    reach_samples : int
+        Surface samples of each run's reach breakdown (0 skips it; ``RunSettings.reach_samples``).
+        Not shared: the summary does not use it.
     """
 
     objects: tuple[str, ...]
@@ -59,6 +62,7 @@ class SweepConfig:
     profile: str = "datasheet-noise"
     calibration: str | None = None
     probe_depth_m: float = PlannerConfig.probe_depth_m
+    reach_samples: int = RunSettings.reach_samples
 
     def __post_init__(self) -> None:
         import objects
@@ -109,7 +113,7 @@ class SweepConfig:
             raise ValueError(f"normals must be booleans, got {self.normals!r}")
         if not isinstance(self.probe_depth_m, (int, float)) or not 0.0 <= self.probe_depth_m < 1.0:
             raise ValueError(f"probe_depth_m must be a number of metres in [0, 1), got {self.probe_depth_m!r}")
-        for name, least in (("touches", 1), ("eval_every", 0), ("mesh_resolution", 8)):
+        for name, least in (("touches", 1), ("eval_every", 0), ("mesh_resolution", 8), ("reach_samples", 0)):
             value = getattr(self, name)
             if not isinstance(value, int) or value < least:
                 raise ValueError(f"{name} must be an integer >= {least}, got {value!r}")
@@ -143,6 +147,7 @@ class SweepRun:
                            touches=config.touches, seed=self.seed, use_normals=self.use_normals,
                            eval_every=config.eval_every, mesh_resolution=config.mesh_resolution,
                            profile=config.profile, calibration=config.calibration,
+                           reach_samples=config.reach_samples,
                            planner=PlannerConfig(probe_depth_m=float(config.probe_depth_m)))
 
 
