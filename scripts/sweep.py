@@ -15,7 +15,7 @@ from pathlib import Path
 
 def main(argv: list[str] | None = None) -> int:
     from explorer.sweep import SweepConfig, run_sweep
-    from scripts._cli import check_out_dir, check_ray_address, float_above
+    from scripts._cli import check_out_dir, check_ray_address, float_above, int_at_least
 
     parser = argparse.ArgumentParser(prog="tactile-sweep", description=__doc__.splitlines()[0])
     parser.add_argument("--objects", default="sphere,box",
@@ -39,7 +39,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="simulation profile: ideal, datasheet-noise (default), hardware-like or a .toml file")
     parser.add_argument("--probe-depth", type=float_above(0.0, inclusive=True), metavar="MM",
                         help="how far past its target a touch may probe, mm (default 150; 30 was the old planner)")
-    parser.add_argument("--reach-samples", type=int, default=64,
+    parser.add_argument("--reach-samples", type=int_at_least(0), metavar="N",
                         help="surface samples of each run's reach breakdown (default 64; 0 skips it)")
     args = parser.parse_args(argv)
     if args.seeds < 1:
@@ -49,7 +49,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.workers < 1:
         parser.error("--workers must be at least 1")
     for option, value, minimum in (("--touches", args.touches, 1), ("--eval-every", args.eval_every, 0),
-                                   ("--mesh-resolution", args.mesh_resolution, 8), ("--reach-samples", args.reach_samples, 0)):
+                                   ("--mesh-resolution", args.mesh_resolution, 8)):
         if value < minimum:
             parser.error(f"{option} must be at least {minimum}, got {value}")
     check_out_dir(parser, args.out, reusable=True)
@@ -64,8 +64,8 @@ def main(argv: list[str] | None = None) -> int:
                              normals=(True, False) if args.no_normals_too else (True,),
                              touches=args.touches, robot=args.robot, eval_every=args.eval_every,
                              mesh_resolution=args.mesh_resolution, profile=args.profile,
-                             reach_samples=args.reach_samples,
-                             **({} if args.probe_depth is None else dict(probe_depth_m=args.probe_depth / 1e3)))
+                             **({} if args.probe_depth is None else dict(probe_depth_m=args.probe_depth / 1e3)),
+                             **({} if args.reach_samples is None else dict(reach_samples=args.reach_samples)))
         report = run_sweep(config, args.out, workers=args.workers, ray_address=args.ray)
     except (ValueError, ImportError, FileNotFoundError) as exc:
         parser.error(str(exc))

@@ -1,6 +1,7 @@
 """Benchmark sweeps: process pool and Ray give the same table, resumption reruns only what is
 missing, a failing run is recorded and the sweep goes on, the summary matches the table."""
 import csv
+import dataclasses
 import json
 import math
 import shutil
@@ -141,7 +142,7 @@ def test_the_command_line_rejects_bad_arguments(tmp_path, capsys):
                           (["--objects", "teapot"], "unknown object 'teapot'"),
                           (["--seeds", "0"], "--seeds must be at least 1"),
                           (["--first-seed", "-1"], "--first-seed must be >= 0"),
-                          (["--reach-samples", "-1"], "--reach-samples must be at least 0, got -1"),
+                          (["--reach-samples", "-1"], "argument --reach-samples: must be at least 0, got -1"),
                           (["--objects", "sphere,,box"], "empty name")):
         with pytest.raises(SystemExit) as exit_info:
             sweep_main(args + ["--out", str(tmp_path)])
@@ -161,7 +162,7 @@ def test_the_plan_covers_the_grid_with_one_directory_per_run():
     assert (settings.object, settings.strategy, settings.use_normals, settings.seed, settings.touches) == (
         "box", "variance", False, 2, 50)
     assert settings.reach_samples == 64
-    assert runs[0].settings(SweepConfig(**{**config.__dict__, "reach_samples": 0})).reach_samples == 0
+    assert runs[0].settings(dataclasses.replace(config, reach_samples=0)).reach_samples == 0
 
 
 @pytest.mark.parametrize("change, message", [
