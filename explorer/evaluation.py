@@ -96,7 +96,7 @@ def top_face_height_error(mesh, truth, inset_m: float = 0.009, spacing_m: float 
         ``top_face_rmse_mm`` (RMS of the errors), ``top_face_max_mm`` (largest |error|),
         ``top_face_missed_fraction`` (rays that missed the reconstruction), ``top_face_points``.
     """
-    import trimesh
+    from objects.proximity import MeshProximity
 
     up = truth.face_normals[:, 2] > 0.99
     if not up.any():
@@ -118,8 +118,7 @@ def top_face_height_error(mesh, truth, inset_m: float = 0.009, spacing_m: float 
     error = height - z_top
     missed = ~np.isfinite(height)
     if missed.any():
-        _, distance, _ = trimesh.proximity.closest_point(mesh, points[missed])
-        error[missed] = distance
+        error[missed] = MeshProximity(mesh).query(points[missed])[1]
     return dict(top_face_rmse_mm=float(1e3 * np.sqrt(np.mean(error ** 2))),
                 top_face_max_mm=float(1e3 * np.max(np.abs(error))),
                 top_face_missed_fraction=float(missed.mean()), top_face_points=int(len(points)))

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from objects.proximity import MeshProximity
 from reconstruction.figures.canvas import finite_array
 
 #: Colour map of every error figure (matplotlib name): green (0) -> yellow -> red (max).
@@ -63,10 +64,7 @@ def distances_to_surface(points_m, mesh) -> np.ndarray:
     -------
     (n,) float, metres.
     """
-    import trimesh
-
     points = finite_array(points_m, "points_m", (None, 3))
     if len(points) == 0:
         return np.zeros(0)
-    _, distances, _ = trimesh.proximity.closest_point(mesh, points)
-    return np.asarray(distances, float)
+    return MeshProximity(mesh).query(points)[1]

@@ -12,6 +12,7 @@ from typing import Sequence
 import numpy as np
 
 from objects.features import SHARP_ANGLE_RAD, sharp_edges
+from objects.proximity import MeshProximity
 from reconstruction.figures.canvas import MM_PER_M, check_png_path, finite_array, new_figure, save_png
 from reconstruction.figures.error_colours import (colour_scale_m, distances_to_surface, error_colour_map,
                                                   error_colours)
@@ -297,8 +298,7 @@ def _normals_under(points: np.ndarray, triangles: np.ndarray, normals: np.ndarra
 
     mesh = trimesh.Trimesh(triangles.reshape(-1, 3), np.arange(3 * len(triangles)).reshape(-1, 3),
                            process=False)
-    _, _, face = trimesh.proximity.closest_point(mesh, points)
-    return normals[face]
+    return normals[MeshProximity(mesh).query(points)[2]]
 
 
 def _axis_limits(points: np.ndarray) -> np.ndarray:
