@@ -402,3 +402,26 @@ def test_mesh_proximity_equals_brute_force_over_all_faces(models):
         everywhere = trimesh.triangles.closest_point(triangles, np.tile(q, (len(triangles), 1)))
         assert d == pytest.approx(np.linalg.norm(everywhere - q, axis=1).min(), abs=1e-12)
         np.testing.assert_allclose(p, everywhere[f], atol=1e-12)
+
+
+def test_mesh_proximity_skips_zero_area_faces_and_names_faces_of_the_original_mesh():
+    # A unit square (two triangles) with a zero-area sliver first: the answers name faces 1 and 2.
+    vertices = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0, 0]])
+    faces = np.array([[0, 4, 1], [0, 1, 2], [0, 2, 3]])
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    closest, distance, face = MeshProximity(mesh).query(np.array([[0.9, 0.2, 0.3], [0.1, 0.8, -0.4], [2.0, 0.5, 0.0]]))
+    np.testing.assert_allclose(closest, [[0.9, 0.2, 0.0], [0.1, 0.8, 0.0], [1.0, 0.5, 0.0]], atol=1e-15)
+    np.testing.assert_allclose(distance, [0.3, 0.4, 1.0], atol=1e-15)
+    np.testing.assert_array_equal(face[:2], [1, 2])
+    assert face[2] == 1   # the square's right edge belongs to face 1 only
+    empty = MeshProximity(mesh).query(np.zeros((0, 3)))
+    assert [a.shape for a in empty] == [(0, 3), (0,), (0,)]
+
+
+def test_the_proximity_benchmark_refuses_a_bad_budget_with_one_line(capsys):
+    from scripts.proximity_benchmark import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--points", "0"])
+    assert stop.value.code == 2
+    assert "--points and --repeats must be >= 1" in capsys.readouterr().err
