@@ -66,16 +66,10 @@ class ArmKinematics:
     def __init__(self, spec: RobotSpec):
         tree = check_spec_against_urdf(spec)
         self.spec = spec
-        self._chain = _load_chain(spec.urdf_path, spec.pad_link)
-        chain_joints = self._chain.get_joint_parameter_names()
         inputs = list(spec.joint_names) + list(spec.spring_joint_names)
-        self._chain_from_input = torch.tensor([inputs.index(name) for name in chain_joints], dtype=torch.long)
         path = tree.joints_to(spec.pad_link)
         self.link_names: tuple[str, ...] = (tree.root_link,) + tuple(j.child for j in path)
         self._link_index = {name: i for i, name in enumerate(self.link_names)}
-        self._frame_of_link = torch.tensor(
-            [self._chain.frame_to_idx[name] for name in self.link_names], dtype=torch.long
-        )
         movable = {j.name: j for j in path if j.name in inputs}
         # position along the chain of each input joint's child link, and its axis
         self._input_link_pos = torch.tensor(
@@ -90,9 +84,8 @@ class ArmKinematics:
         base = np.eye(4)
         base[:3, :3] = quat_to_matrix(spec.base_quat_wxyz)
         base[:3, 3] = spec.base_position_m
-        self._base = torch.tensor(base, dtype=DTYPE)
+        self._serial = _SerialChain(_load_chain(spec.urdf_path, spec.pad_link), self.link_names, inputs, base)
         self._pivot_to_pad_in_body = self._pivot_to_pad_offset()
-        self._serial = _SerialChainNumpy(self._chain, self.link_names, inputs, base)
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -114,9 +107,7 @@ class ArmKinematics:
 
         ``q`` is (B, dof) and ``spring_rad`` (B, 2) or None (springs at 0).
         """
-        inputs = self._inputs(q, spring_rad)
-        frames = self._chain.forward_kinematics_tensor(inputs[:, self._chain_from_input])
-        return self._base @ frames[self._frame_of_link]
+        return self._serial.transforms(self._inputs(q, spring_rad))
 
     def jacobian_tensor(self, transforms: torch.Tensor, link: str, with_springs: bool = False) -> torch.Tensor:
         """Geometric Jacobian (B, 6, dof [+2]) of ``link``'s origin, world frame, rows (v, omega).
@@ -245,12 +236,16 @@ class ArmKinematics:
         return pivot + quat_to_matrix(quat) @ self._pivot_to_pad_in_body
 
 
-class _SerialChainNumpy:
-    """Forward kinematics of a pytorch_kinematics serial chain for one configuration, in numpy.
+class _SerialChain:
+    """Forward kinematics of a pytorch_kinematics serial chain: one configuration in numpy, a batch
+    in torch.
 
-    Per link: ``T_world[i] = T_world[i-1] @ offset[i] @ R(axis[i], theta)`` with the chain's own
-    static offsets (link offset @ joint offset) and joint axes, the base pose applied first, as
-    ``pytorch_kinematics`` composes them.
+    Per link: ``T[i] = T[i-1] @ (offset[i] @ R(axis[i], theta))`` with the chain's own static
+    offsets (link offset @ joint offset) and joint axes, the product pytorch_kinematics'
+    ``forward_kinematics_tensor`` forms (``_fk_impl``). The batch form does it in the same order
+    with the same rotation formula, so it gives the same bits (``tests/test_kinematics.py``) in
+    about half the time: pytorch_kinematics walks a general tree level by level, and the IK calls
+    it tens of thousands of times per run.
 
     Parameters
     ----------
@@ -279,6 +274,11 @@ class _SerialChainNumpy:
             else:
                 raise ValueError(f"joint {frame.joint.name!r} is {frame.joint.joint_type}: only revolute and fixed")
         self._base = np.asarray(base, dtype=float)
+        self._base_t = torch.as_tensor(self._base, dtype=DTYPE)
+        self._offsets_t = torch.as_tensor(np.stack(self._offsets), dtype=DTYPE)
+        self._revolute = [i for i, joint in enumerate(self._joints) if joint is not None]
+        self._revolute_input = torch.tensor([self._joints[i][0] for i in self._revolute], dtype=torch.long)
+        self._revolute_axis = torch.tensor([self._joints[i][1] for i in self._revolute], dtype=DTYPE)
 
     def transform(self, values: list[float], upto: int) -> np.ndarray:
         """World transform (4, 4) of link number ``upto`` for joint values ``values`` (radians)."""
@@ -288,6 +288,35 @@ class _SerialChainNumpy:
             if joint is not None:
                 t = t @ _rotation_44(joint[1], values[joint[0]])
         return t
+
+    def transforms(self, values: torch.Tensor) -> torch.Tensor:
+        """World transforms (n_links, B, 4, 4) of every link for joint values (B, n_inputs), radians."""
+        batch = values.shape[0]
+        rotations = _rotations_44(self._revolute_axis, values[:, self._revolute_input])  # (B, J, 4, 4)
+        local = list(self._offsets_t.unbind(0))
+        for j, link in enumerate(self._revolute):
+            local[link] = local[link] @ rotations[:, j]
+        chain = []
+        pose = None
+        for transform in local:
+            pose = transform.expand(batch, 4, 4) if pose is None else pose @ transform
+            chain.append(pose)
+        return self._base_t @ torch.stack(chain)
+
+
+def _rotations_44(axes: torch.Tensor, theta: torch.Tensor) -> torch.Tensor:
+    """(B, J, 4, 4) rotations by ``theta`` (B, J) about unit ``axes`` (J, 3), pytorch_kinematics'
+    formula term for term (``axis_and_angle_to_matrix_33``)."""
+    c, s = torch.cos(theta), torch.sin(theta)
+    k = 1 - c
+    x, y, z = axes.unbind(-1)
+    rows = [c + x * x * k, x * y * k - z * s, x * z * k + y * s,
+            y * x * k + z * s, c + y * y * k, y * z * k - x * s,
+            z * x * k - y * s, z * y * k + x * s, c + z * z * k]
+    matrix = torch.zeros(*theta.shape, 4, 4, dtype=theta.dtype)
+    matrix[..., :3, :3] = torch.stack(rows, -1).reshape(*theta.shape, 3, 3)
+    matrix[..., 3, 3] = 1.0
+    return matrix
 
 
 def _rotation_44(axis: tuple[float, float, float], theta: float) -> np.ndarray:
