@@ -1,5 +1,6 @@
-"""What a touch tells the GPIS: a contact (a surface point and normal), for a miss free space, and
-for a press on the pad's side that the surface is within the pad's reach.
+"""What a touch tells the GPIS: a contact (a surface point and normal), for a miss free space, for
+a press on the pad's side that the surface is within the pad's reach, and for both of these the free
+space the approach swept before the pad met the surface.
 
 The loop, resume and replay feed the GPIS through one :class:`SurfaceEvidence`, so a replay with the
 recorded settings updates the field in the same order with the same values. Free space seen before
@@ -51,6 +52,18 @@ class SurfaceEvidence:
     def add_free_space(self, points: np.ndarray) -> None:
         """(k, 3) points outside the object (held back until the first contact)."""
         self._add_values(points, self.free_space_value, self.free_space_noise)
+
+    def add_swept(self, points: np.ndarray) -> None:
+        """(k, 3) points an approach swept before the pad met the surface (``TouchOutcome.swept_points``):
+        free space, added only where the field disagrees, i.e. where its mean lies above
+        ``free_space_value`` (surface or solid nearer than the pad allows). Elsewhere such a row
+        would ask for -``free_space_value`` where the surface may be much farther (a bound, not a
+        value) and pull the field in. Nothing before the first contact."""
+        points = self.inside_bounds(np.asarray(points, float).reshape(-1, 3))
+        if not len(points) or self.gpis.n_contacts == 0:
+            return
+        self._add_values(points[self.gpis.mean(points) > self.free_space_value], self.free_space_value,
+                         self.free_space_noise)
 
     def add_side_press(self, pad_m: np.ndarray) -> None:
         """The (3,) pad-face centre of a press on the pad's side (``TouchOutcome.side_m``): the

@@ -294,6 +294,8 @@ class SessionReplay:
             self.loop_config = replace(self.loop_config, side_press_noise=None)
         if "drop_released_presses" not in recorded_loop:  # recorded before the release test
             self.loop_config = replace(self.loop_config, drop_released_presses=False)
+        if "swept_free_space" not in recorded_loop:  # recorded before contacts' approach lines counted
+            self.loop_config = replace(self.loop_config, swept_free_space=False)
         doubt = (DoubtRule() if self.teleop else DoubtRule(-np.inf) if self.legacy_contacts
                  else self.loop_config.doubt_rule())
         self.pipeline = ContactPipeline(self.kinematics, self.pad, self.settling,
@@ -502,6 +504,8 @@ class SessionReplay:
                 evidence.add_free_space(touch.free_space_m)
             elif touch.kind == "no_normal" and touch.side_m is not None:
                 evidence.add_side_press(touch.side_m)
+            if cfg.swept_free_space and not self.teleop and touch.kind in ("contact", "no_normal"):
+                evidence.add_swept(touch.swept_points(-cfg.free_space_value))
         return gpis
 
     def _max_realigns(self) -> int:

@@ -147,8 +147,17 @@ class TouchOutcome:
         """(k, 3) points of the approach line from the target on that the pad went through before it
         met the surface, at least ``margin_m`` short of the contact, every ``spacing_m``; object
         frame. Empty without a contact position or when the contact came before that."""
-        if self.position_m is None:
+        return self._line_before(self.position_m, margin_m, spacing_m)
+
+    def swept_points(self, margin_m: float, spacing_m: float = 0.01) -> np.ndarray:
+        """:meth:`passed_points` of a contact the GPIS takes (kind ``contact``) or of a press on the
+        pad's side (kind ``no_normal``, up to ``side_m``); empty for any other touch."""
+        end = self.position_m if self.kind == "contact" else self.side_m if self.kind == "no_normal" else None
+        return self._line_before(end, margin_m, spacing_m)
+
+    def _line_before(self, end_m, margin_m: float, spacing_m: float) -> np.ndarray:
+        if end_m is None:
             return np.zeros((0, 3))
-        reached = float((np.asarray(self.position_m) - self.target_m) @ self.approach_dir)
+        reached = float((np.asarray(end_m) - self.target_m) @ self.approach_dir)
         along = np.arange(0.0, reached - margin_m + 1e-12, spacing_m)
         return self.target_m + along[:, None] * self.approach_dir

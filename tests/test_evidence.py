@@ -52,3 +52,54 @@ def test_a_side_press_outside_the_bounds_adds_nothing():
     rows = evidence.gpis.n_rows
     evidence.add_side_press(np.array([0.0, 0.0, 0.2]))
     assert evidence.gpis.n_rows == rows
+
+
+def _sphere_evidence():
+    evidence = SurfaceEvidence(GPIS(bounds=BOUNDS), -0.009, 0.005, -0.0065, 0.004)
+    for p in POINTS:
+        evidence.add_contact(p, p / np.linalg.norm(p))
+    return evidence
+
+
+def test_swept_points_become_free_space_only_where_the_field_puts_surface_nearer():
+    """A line from outside through the middle of four contacts on a 4 cm sphere: the points whose
+    mean lies above the free-space value (inside, or within 9 mm outside) get a row each, pulled
+    towards that value; the points the field already has far outside get none."""
+    evidence = _sphere_evidence()
+    line = np.column_stack([np.zeros(16), np.zeros(16), np.linspace(-0.09, 0.0, 16)])
+    before = evidence.gpis.mean(line)
+    disagree = before > -0.009
+    assert 0 < disagree.sum() < len(line)   # both kinds on this line
+    rows = evidence.gpis.n_rows
+    evidence.add_swept(line)
+    assert evidence.gpis.n_rows == rows + disagree.sum()
+    after = evidence.gpis.mean(line)
+    assert np.all(np.abs(after[disagree] + 0.009) < np.abs(before[disagree] + 0.009))
+    direct = _sphere_evidence().gpis.add_values(line[disagree], np.full(disagree.sum(), -0.009), noise=0.005)
+    np.testing.assert_allclose(after, direct.mean(line), rtol=0, atol=1e-12)
+
+
+def test_swept_points_add_nothing_before_the_first_contact_or_outside_the_bounds():
+    evidence = SurfaceEvidence(GPIS(bounds=BOUNDS), -0.009, 0.005, -0.0065, 0.004)
+    evidence.add_swept(np.zeros((3, 3)))
+    assert evidence.gpis.n_rows == 0
+    evidence = _sphere_evidence()
+    rows = evidence.gpis.n_rows
+    evidence.add_swept(np.array([[0.0, 0.0, 0.15], [0.0, 0.0, -0.2]]))
+    assert evidence.gpis.n_rows == rows
+
+
+def test_the_swept_line_ends_a_margin_short_of_a_contact_or_a_side_press_and_is_empty_otherwise():
+    from explorer.touch import TouchOutcome
+
+    target, approach = np.array([0.0, 0.0, 0.05]), np.array([0.0, 0.0, -1.0])
+    contact = TouchOutcome(0, "contact", target, approach, position_m=np.array([0.001, 0.0, 0.005]))
+    line = contact.swept_points(0.009, spacing_m=0.01)
+    np.testing.assert_allclose(line[:, 2], [0.05, 0.04, 0.03, 0.02])   # reached 45 mm, up to 36 mm
+    np.testing.assert_allclose(line[:, :2], 0.0)
+    side = TouchOutcome(1, "no_normal", target, approach, side_m=np.array([0.0, 0.0, 0.02]))
+    np.testing.assert_allclose(side.swept_points(0.009)[:, 2], [0.05, 0.04, 0.03])   # reached 30 mm, up to 21
+    for kind in ("realign", "miss", "blocked"):
+        touch = TouchOutcome(2, kind, target, approach, position_m=np.array([0.0, 0.0, 0.0]))
+        assert touch.swept_points(0.009).shape == (0, 3)
+    assert TouchOutcome(3, "no_normal", target, approach).swept_points(0.009).shape == (0, 3)
