@@ -2,7 +2,7 @@
 
 :meth:`MeshProximity.query` asks libigl's AABB tree (``igl.AABB.squared_distance``, exact
 point-triangle distances with a bounding-volume hierarchy in C++). It replaced a numpy search over
-a k-d tree of face centroids written here before: the same distances (to 1e-16 m) 30-50x faster
+a k-d tree of face centroids written here before: the same distances (to 1e-16 m) 5-60x faster
 (BENCHMARKS.md, "Closest points from libigl"), which is most of the time an evaluation takes.
 
 :meth:`MeshProximity.normal_cone_error` measures a normal against the surface at the closest point.
