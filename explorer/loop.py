@@ -151,7 +151,10 @@ class LoopConfig:
         The approach line a contact's or a side press's pad went along before it met the surface,
         up to ``-free_space_value`` short of it, is free space where the field puts the surface
         nearer (:meth:`explorer.evidence.SurfaceEvidence.add_swept`): the probe past a phantom lid
-        or through a ring's closed hole. False: the loop before 2026-11-27.
+        or through a ring's closed hole. Off by default: refitted on the same contacts it improves
+        the reconstruction on both splits, but through the loop (the variance strategy then aims
+        elsewhere) the tuning split came out no better (BENCHMARKS.md, "Free space along the swept
+        approach line").
     drop_released_presses : bool
         A press whose settled force lies below the contact detector's end threshold had let go
         before the orientation settled (:class:`explorer.contact.PressReleased`): ``no_normal``,
@@ -187,7 +190,7 @@ class LoopConfig:
     side_contact_force_n: float = 1.3
     side_contact_tilt_rad: float = float(np.radians(12.0))
     drop_released_presses: bool = True
-    swept_free_space: bool = True
+    swept_free_space: bool = False
 
     def doubt_rule(self) -> DoubtRule:
         """The doubtful-contact rule of these settings."""

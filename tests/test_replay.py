@@ -1,7 +1,6 @@
 """Offline replay of a recorded exploration: exact reproduction, new thresholds, cut-off sessions."""
 import json
 import shutil
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -189,7 +188,6 @@ def test_side_presses_give_the_replayed_gpis_one_value_row_each_when_asked(spher
     peaks = [r.quality.peak_force_n for r in sphere_run.records if r.kind == "contact"]
     replaying = SessionReplay(sphere_run.out_dir / "session")
     replaying.pipeline.doubt = DoubtRule(side_force_n=float(np.median(peaks)), side_tilt_rad=np.pi)
-    replaying.loop_config = replace(replaying.loop_config, swept_free_space=False)  # rows counted here
     on = replaying.run(ReplaySettings(figures=False, side_presses=True))
     off = replaying.run(ReplaySettings(figures=False, side_presses=False))
     sides = sum(t.kind == "no_normal" for t in on.touches)
@@ -251,7 +249,6 @@ def test_a_press_that_let_go_is_replayed_as_no_contact_and_no_side_press(sphere_
         return measure(*args, **kwargs)
 
     replaying.pipeline.measure = release_the_first
-    replaying.loop_config = replace(replaying.loop_config, swept_free_space=False)  # rows counted here
     result = replaying.run(ReplaySettings(figures=False, side_presses=True))
     assert replaying.pipeline.release_threshold_pa == replaying._detector_config(ReplaySettings()).end_threshold_pa
     released = [t for t in result.touches if t.kind == "no_normal"]
@@ -264,10 +261,14 @@ def test_a_press_that_let_go_is_replayed_as_no_contact_and_no_side_press(sphere_
     shutil.copytree(sphere_run.out_dir / "session", old)
     metadata = json.loads((old / "metadata.json").read_text())
     del metadata["configuration"]["loop"]["drop_released_presses"]
-    del metadata["configuration"]["loop"]["swept_free_space"]
+    metadata["configuration"]["loop"]["swept_free_space"] = True   # a run that had it on ...
     (old / "metadata.json").write_text(json.dumps(metadata))
     before = SessionReplay(old)
     before.run(ReplaySettings(figures=False))
     assert not before.loop_config.drop_released_presses and before.pipeline.release_threshold_pa is None
-    assert not before.loop_config.swept_free_space   # recorded before swept lines counted
-    assert SessionReplay(sphere_run.out_dir / "session").loop_config.swept_free_space
+    assert before.loop_config.swept_free_space   # ... is replayed with it on
+    assert not SessionReplay(sphere_run.out_dir / "session").loop_config.swept_free_space   # the default
+    legacy = json.loads((old / "metadata.json").read_text())
+    del legacy["configuration"]["loop"]["swept_free_space"]
+    (old / "metadata.json").write_text(json.dumps(legacy))
+    assert not SessionReplay(old).loop_config.swept_free_space   # recorded before it existed
