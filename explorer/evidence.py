@@ -1,12 +1,15 @@
 """What a touch tells the GPIS: a contact (a surface point and normal), for a miss free space, for
-a press on the pad's side that the surface is within the pad's reach, and for both of these the free
-space the approach swept before the pad met the surface.
+a press on the pad's side that the surface is within the pad's reach; and for the reconstruction
+(:func:`with_swept_free_space`) the free space the approaches of both swept before the pad met the
+surface.
 
 The loop, resume and replay feed the GPIS through one :class:`SurfaceEvidence`, so a replay with the
 recorded settings updates the field in the same order with the same values. Free space seen before
 the first contact waits for it (the GPIS has no surface to be outside of until then).
 """
 from __future__ import annotations
+
+import copy
 
 import numpy as np
 
@@ -89,3 +92,28 @@ class SurfaceEvidence:
             self._pending.append((points, value, noise))
             return
         self.gpis.add_values(points, np.full(len(points), value), noise=noise)
+
+
+def with_swept_free_space(gpis: GPIS, records, free_space_value: float, free_space_noise: float) -> tuple[GPIS, int]:
+    """A copy of ``gpis`` that also holds the free space the pads of contacts and of presses on the
+    pad's side swept on their approach lines (``TouchOutcome.swept_points``, up to
+    ``-free_space_value`` short of where they met the surface), where the field disagrees
+    (:meth:`SurfaceEvidence.add_swept`, one gate on the whole field); and the number of rows added.
+
+    For the reconstruction only: ``gpis`` (the field the strategy explores with) is unchanged. Fed to
+    the loop touch by touch the same rows steered the variance strategy elsewhere and did not help
+    (BENCHMARKS.md, "Free space along the swept approach line").
+
+    Parameters
+    ----------
+    gpis : GPIS, object frame
+    records : sequence of explorer.touch.TouchOutcome
+    free_space_value, free_space_noise : float
+        As :class:`SurfaceEvidence` (``LoopConfig``'s).
+    """
+    field = copy.deepcopy(gpis)
+    lines = [np.asarray(r.swept_points(-free_space_value), float).reshape(-1, 3) for r in records]
+    rows = field.n_rows
+    SurfaceEvidence(field, free_space_value, free_space_noise).add_swept(
+        np.vstack(lines) if lines else np.zeros((0, 3)))
+    return field, field.n_rows - rows

@@ -148,13 +148,12 @@ class LoopConfig:
         pad's side, not its face: ``no_normal`` (:class:`explorer.contact.DoubtRule`, ``side_*``).
         0 force: no such test.
     swept_free_space : bool
-        The approach line a contact's or a side press's pad went along before it met the surface,
-        up to ``-free_space_value`` short of it, is free space where the field puts the surface
-        nearer (:meth:`explorer.evidence.SurfaceEvidence.add_swept`): the probe past a phantom lid
-        or through a ring's closed hole. Off by default: refitted on the same contacts it improves
-        the reconstruction on both splits, but through the loop (the variance strategy then aims
-        elsewhere) the tuning split came out no better (BENCHMARKS.md, "Free space along the swept
-        approach line").
+        The reconstruction (the run's mesh and error curve) also knows that the approach line a
+        contact's or a side press's pad went along before it met the surface, up to
+        ``-free_space_value`` short of it, is free space where the field puts the surface nearer
+        (:func:`explorer.evidence.with_swept_free_space`): the probe past a phantom lid or through a
+        ring's closed hole. The loop's own field, which the strategy explores, does not. False: runs
+        before 2026-11-27.
     drop_released_presses : bool
         A press whose settled force lies below the contact detector's end threshold had let go
         before the orientation settled (:class:`explorer.contact.PressReleased`): ``no_normal``,
@@ -190,7 +189,7 @@ class LoopConfig:
     side_contact_force_n: float = 1.3
     side_contact_tilt_rad: float = float(np.radians(12.0))
     drop_released_presses: bool = True
-    swept_free_space: bool = False
+    swept_free_space: bool = True
 
     def doubt_rule(self) -> DoubtRule:
         """The doubtful-contact rule of these settings."""
@@ -373,8 +372,6 @@ class ExplorationLoop:
                 self.evidence.add_free_space(record.free_space_m)
             elif record.side_m is not None:
                 self.evidence.add_side_press(record.side_m)
-            if self.config.swept_free_space:
-                self.evidence.add_swept(record.swept_points(-self.config.free_space_value))
         if records and records[-1].kind == "realign":
             last = records[-1]
             self._follow_up = Touch(last.position_m, -last.normal, strategy="realign",
@@ -433,7 +430,6 @@ class ExplorationLoop:
             self._add_free_space(record.free_space_m)
         elif record.side_m is not None:
             self._add_side_press(record.side_m)
-        self._add_swept(record)
         return record
 
     def _touched_points(self) -> np.ndarray:
@@ -679,13 +675,6 @@ class ExplorationLoop:
         t0 = time.perf_counter()
         self.evidence.add_free_space(points)
         self.times.gpis_s += time.perf_counter() - t0
-
-    def _add_swept(self, record: TouchOutcome) -> None:
-        """The line a contact's or side press's pad swept, where the field disagrees (``swept_free_space``)."""
-        if self.config.swept_free_space:
-            t0 = time.perf_counter()
-            self.evidence.add_swept(record.swept_points(-self.config.free_space_value))
-            self.times.gpis_s += time.perf_counter() - t0
 
     def _add_side_press(self, pad_m: np.ndarray) -> None:
         """A press on the pad's side was made with the pad-face centre at ``pad_m`` (object frame)."""

@@ -50,7 +50,7 @@ from explorer import outputs
 from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, PressReleased,
                               wants_realign)
 from explorer.evaluation import jsonable
-from explorer.evidence import SurfaceEvidence
+from explorer.evidence import SurfaceEvidence, with_swept_free_space
 from explorer.loop import LoopConfig
 from explorer.outputs import add_errors, write_figures, write_mesh
 from explorer.planner import PlannerConfig, approach_line
@@ -294,7 +294,7 @@ class SessionReplay:
             self.loop_config = replace(self.loop_config, side_press_noise=None)
         if "drop_released_presses" not in recorded_loop:  # recorded before the release test
             self.loop_config = replace(self.loop_config, drop_released_presses=False)
-        if "swept_free_space" not in recorded_loop:  # recorded before contacts' approach lines counted
+        if "swept_free_space" not in recorded_loop:  # recorded before the swept lines counted
             self.loop_config = replace(self.loop_config, swept_free_space=False)
         doubt = (DoubtRule() if self.teleop else DoubtRule(-np.inf) if self.legacy_contacts
                  else self.loop_config.doubt_rule())
@@ -504,8 +504,6 @@ class SessionReplay:
                 evidence.add_free_space(touch.free_space_m)
             elif touch.kind == "no_normal" and touch.side_m is not None:
                 evidence.add_side_press(touch.side_m)
-            if cfg.swept_free_space and not self.teleop and touch.kind in ("contact", "no_normal"):
-                evidence.add_swept(touch.swept_points(-cfg.free_space_value))
         return gpis
 
     def _max_realigns(self) -> int:
@@ -564,11 +562,16 @@ class SessionReplay:
             contacts_csv_row(t, t.contact.t_s, t.contact.force_n) for t in result.contacts))
         metrics = result.metrics
         resolution = settings.mesh_resolution or int(self.configuration.get("mesh_resolution", 96))
-        mesh = write_mesh(result.gpis, resolution, out, metrics)
+        field = result.gpis
+        if self.loop_config.swept_free_space and not self.teleop:  # as the run's reconstruction had it
+            cfg = self.loop_config
+            field, metrics["swept_free_space_rows"] = with_swept_free_space(
+                field, result.touches, cfg.free_space_value, cfg.free_space_noise)
+        mesh = write_mesh(field, resolution, out, metrics)
         add_errors(metrics, mesh, self.truth, result.points_m, result.normals)
         outputs.write_json(out / "metrics.json", jsonable(metrics))
         if mesh is not None and self.truth is not None and settings.figures:
-            write_figures(out, result.gpis, mesh, self.truth, result.points_m, use_normals)
+            write_figures(out, field, mesh, self.truth, result.points_m, use_normals)
 
 
 def replay(session_dir: Path, settings: ReplaySettings = ReplaySettings(),

@@ -141,12 +141,12 @@ def test_a_probe_through_a_guessed_surface_is_remembered_and_a_restore_keeps_it(
 
 
 
-def test_a_restore_adds_the_swept_free_space_rows_only_when_the_run_had_them_on():
+def test_the_reconstruction_adds_the_swept_free_space_and_the_loops_field_does_not():
     """Two recorded contacts on the sphere's +x face; the second touch's approach line ran through
-    where the first contact's field is solid (a probe past a guessed surface). With
-    ``swept_free_space`` the restored field has the evidence's rows for that line, built directly
-    from the same contacts and line; without it, the contacts' rows only."""
-    from explorer.evidence import SurfaceEvidence
+    where the first contact's field is solid (a probe past a guessed surface). A restored loop's
+    field (the strategy's) has the contacts' rows only, whatever ``swept_free_space``; the
+    reconstruction's field adds rows for that line, equal to the evidence built directly."""
+    from explorer.evidence import SurfaceEvidence, with_swept_free_space
     from explorer.touch import TouchOutcome
 
     x = np.array([1.0, 0.0, 0.0])
@@ -155,21 +155,25 @@ def test_a_restore_adds_the_swept_free_space_rows_only_when_the_run_had_them_on(
     inside = RADIUS_M - 0.004
     second = TouchOutcome(1, "contact", np.array([inside, 0.0, 0.05]), np.array([0.0, 0.0, -1.0]),
                           position_m=np.array([inside, 0.0, 0.0]), normal=np.array([0.0, 0.0, 1.0]), strategy="scripted")
-    for swept in (True, False):
-        _, rig = sphere_rig(RADIUS_M)
-        config = LoopConfig(touches=2, swept_free_space=swept)
-        fresh = ExplorationLoop(rig, FakePlanner(rig.positioner), ScriptedStrategy([]), GPIS(bounds=rig.prior.bounds()),
-                                config)
-        fresh.restore([first, second])
-        direct = SurfaceEvidence(GPIS(bounds=rig.prior.bounds()), config.free_space_value, config.free_space_noise)
-        for record in (first, second):
-            direct.add_contact(record.position_m, record.normal)
-            if swept:
-                direct.add_swept(record.swept_points(-config.free_space_value))
-        assert fresh.gpis.n_rows == direct.gpis.n_rows
-        assert (fresh.gpis.n_rows > 8) == swept
-        points = np.random.default_rng(0).uniform(*fresh.gpis.bounds, size=(100, 3))
-        np.testing.assert_allclose(fresh.gpis.mean(points), direct.gpis.mean(points), rtol=0, atol=1e-12)
+    _, rig = sphere_rig(RADIUS_M)
+    config = LoopConfig(touches=2)
+    assert config.swept_free_space
+    fresh = ExplorationLoop(rig, FakePlanner(rig.positioner), ScriptedStrategy([]), GPIS(bounds=rig.prior.bounds()),
+                            config)
+    fresh.restore([first, second])
+    assert fresh.gpis.n_rows == 8
+    field, rows = with_swept_free_space(fresh.gpis, fresh.records, config.free_space_value, config.free_space_noise)
+    assert fresh.gpis.n_rows == 8 and rows > 0 and field.n_rows == 8 + rows
+    direct = SurfaceEvidence(GPIS(bounds=rig.prior.bounds()), config.free_space_value, config.free_space_noise)
+    for record in (first, second):
+        direct.add_contact(record.position_m, record.normal)
+    direct.add_swept(np.vstack([r.swept_points(-config.free_space_value) for r in (first, second)]))
+    points = np.random.default_rng(0).uniform(*fresh.gpis.bounds, size=(100, 3))
+    np.testing.assert_allclose(field.mean(points), direct.gpis.mean(points), rtol=0, atol=1e-12)
+    line = second.swept_points(-config.free_space_value)
+    solid = fresh.gpis.mean(line) > config.free_space_value   # where the rows went
+    assert solid.sum() == rows
+    assert np.all(field.mean(line[solid]) < fresh.gpis.mean(line[solid]))   # pushed out along the probe
 
 
 def test_a_surface_at_the_very_end_of_the_line_is_still_pressed():

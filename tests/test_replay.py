@@ -267,7 +267,7 @@ def test_a_press_that_let_go_is_replayed_as_no_contact_and_no_side_press(sphere_
     before.run(ReplaySettings(figures=False))
     assert not before.loop_config.drop_released_presses and before.pipeline.release_threshold_pa is None
     assert before.loop_config.swept_free_space   # ... is replayed with it on
-    assert not SessionReplay(sphere_run.out_dir / "session").loop_config.swept_free_space   # the default
+    assert SessionReplay(sphere_run.out_dir / "session").loop_config.swept_free_space   # the default
     legacy = json.loads((old / "metadata.json").read_text())
     del legacy["configuration"]["loop"]["swept_free_space"]
     (old / "metadata.json").write_text(json.dumps(legacy))
