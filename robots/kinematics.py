@@ -1,6 +1,7 @@
 """Forward kinematics and Jacobians of the arm + fingertip, from the robot's own URDF.
 
-Built with pytorch_kinematics on the serial chain from the URDF root to the pad link, in float64.
+The serial chain from the URDF root to the pad link is read with pytorch_kinematics and composed
+here (:class:`_SerialChain`), in float64.
 Joint vectors ``q`` hold the actuated joints in ``RobotSpec.joint_names`` order (radians); the
 two spring angles are separate (``spring_rad``, default 0: the commanded, undeflected pose).
 All poses are in the world frame (the spec's base pose applied), metres.
@@ -243,9 +244,9 @@ class _SerialChain:
     Per link: ``T[i] = T[i-1] @ (offset[i] @ R(axis[i], theta))`` with the chain's own static
     offsets (link offset @ joint offset) and joint axes, the product pytorch_kinematics'
     ``forward_kinematics_tensor`` forms (``_fk_impl``). The batch form does it in the same order
-    with the same rotation formula, so it gives the same bits (``tests/test_kinematics.py``) in
-    about half the time: pytorch_kinematics walks a general tree level by level, and the IK calls
-    it tens of thousands of times per run.
+    with the same rotation formula, so it gives the same bits (``tests/test_kinematics.py``) 1.4-1.6x
+    faster (BENCHMARKS.md, "FK composed along the chain"): pytorch_kinematics walks a general tree
+    level by level, and the IK calls it tens of thousands of times per run.
 
     Parameters
     ----------
