@@ -142,8 +142,9 @@ def test_a_probe_through_a_guessed_surface_is_remembered_and_a_restore_keeps_it(
 
 
 def test_the_reconstruction_adds_the_swept_free_space_and_the_loops_field_does_not():
-    """Two recorded contacts on the sphere's +x face; the second touch's approach line ran through
-    where the first contact's field is solid (a probe past a guessed surface). A restored loop's
+    """Two recorded contacts near the sphere's +x face; the end of the second touch's approach line
+    lies where the field puts surface nearer than the pad allows (about -6 mm against the -9 mm
+    bound at its last point; a probe past a guessed surface). A restored loop's
     field (the strategy's) has the contacts' rows only, whatever ``swept_free_space``; the
     reconstruction's field adds rows for that line, equal to the evidence built directly."""
     from explorer.evidence import SurfaceEvidence, with_swept_free_space
