@@ -270,14 +270,18 @@ class ExplorationLoop:
         self.records: list[TouchOutcome] = []
         self.times = PhaseTimes()
         #: Moves the arm's protective stop (or the controller) ended, by phase (``transfer``,
-        #: ``retract``, ``rest``, ``rest_forced``) and by what the arm met (``on``: body name, or
-        #: ``unknown`` when the robot does not say). See :meth:`blocked_moves_summary`.
+        #: ``retract``, ``rest``, ``retrace``, ``rest_forced``) and by what the arm met (``on``:
+        #: body name, or ``unknown`` when the robot does not say). See :meth:`blocked_moves_summary`.
         self.blocked_moves: Counter = Counter()
         self.blocked_on: Counter = Counter()
         self._contact_readings: list[Reading] = []
         self._baseline_pa: float | None = None
         self._press_start_s = -np.inf
         self._follow_up: Touch | None = None
+        #: Joint positions (dof,) the free moves reached since the arm was last at rest (or since the
+        #: run began), in order; the last is where the arm stands between touches. Retraced when
+        #: the way to rest is blocked (:meth:`_retrace`).
+        self._trail: list[np.ndarray] = []
 
     # ------------------------------------------------------------------ public
     @property
@@ -486,7 +490,7 @@ class ExplorationLoop:
                     self._free_route(line[0])
                     self.robot.guarded_move(np.vstack([line[1:], q[None]]), stop=lambda: False,
                                             speed_rad_s=self.config.transfer_speed_rad_s)
-                    self._free_move(q)
+                    self._free_move(q, passed=line[1:])
                 else:
                     self._free_route(q)
                 return True
@@ -507,30 +511,41 @@ class ExplorationLoop:
         for waypoint in route:
             self._free_move(waypoint)
 
-    def _free_move(self, q: np.ndarray) -> None:
-        """Move to ``q`` at transfer speed; when blocked, step back the way it came
-        (:func:`back_out`) and raise the MoveNotReachedError."""
+    def _free_move(self, q: np.ndarray, passed=()) -> None:
+        """Move to ``q`` at transfer speed and add it (after the (k, dof) waypoints ``passed`` on the
+        way) to the trail; when blocked, step back the way it came (:func:`back_out`) and raise
+        the MoveNotReachedError."""
         start = self.robot.joint_positions()
+        if not self._trail:
+            self._trail.append(start)
         try:
             self.robot.move_joints(q, self.config.transfer_speed_rad_s)
         except MoveNotReachedError:
             back_out(self.robot, start, self.kin.lower_rad, self.kin.upper_rad)
             raise
+        q = np.asarray(q, float)
+        if np.allclose(q, self.planner.rest_q):
+            self._trail = [q]
+        else:
+            self._trail.extend([*np.asarray(passed, float).reshape(-1, len(q)), q])
 
     def _to_rest(self) -> None:
-        """To the rest pose; when blocked (``rest_blocked`` event), the pad first backs straight
-        out along its face axis (:meth:`ApproachPlanner.retreat_path`: the straight joint path to
-        rest from near the object can sweep the hand through it), then once more to rest, both at
-        recovery speed (a real arm's recovery after a protective stop). Blocked again
-        (``rest_forced`` event): a last slow guarded move to rest, whose only guard is the robot's
-        own (the simulated arm's is none: it pushes past the object as every move did before the
-        protective stop). Still not at rest: the MoveNotReachedError ends the run, with what was
-        recorded kept."""
+        """To the rest pose; when blocked (``rest_blocked`` event), back the way the arm came
+        (:meth:`_retrace`: the free moves since it was last at rest, in reverse), then to rest.
+        Blocked on that too (``retrace_blocked`` event), the pad backs straight out along its
+        face axis (:meth:`ApproachPlanner.retreat_path`: the straight joint path to rest from near
+        the object can sweep the hand through it), then once more to rest, both at recovery speed
+        (a real arm's recovery after a protective stop). Blocked again (``rest_forced`` event): a
+        last slow guarded move to rest, whose only guard is the robot's own (the simulated arm's is
+        none: it pushes past the object as every move did before the protective stop). Still not
+        at rest: the MoveNotReachedError ends the run, with what was recorded kept."""
         rest = self.planner.rest_q
         try:
             self._free_route(rest)
         except MoveNotReachedError as err:
             self._blocked("rest", err)
+            if self._retrace():
+                return
             retreat = self.planner.retreat_path(self.robot.joint_positions())
             if len(retreat):
                 self.robot.guarded_move(retreat, stop=lambda: False, speed_rad_s=RECOVERY_SPEED_RAD_S)
@@ -541,6 +556,27 @@ class ExplorationLoop:
                 self.robot.guarded_move(np.asarray(rest, float)[None], stop=lambda: False,
                                         speed_rad_s=RECOVERY_SPEED_RAD_S)
                 self.robot.move_joints(rest, RECOVERY_SPEED_RAD_S)
+
+    def _retrace(self) -> bool:
+        """Back along the trail (the free moves since the arm was last at rest, in reverse) to its
+        start, then to rest: the arm reached every trail point without a block and nothing has
+        moved since, so this is the one way known to be clear when the planned way to rest is
+        not (a hand pressed into a lid's rim it reached from the other side). At transfer speed,
+        each move with the protective stop. False, with a ``retrace_blocked`` event and the arm
+        backed out of the blocked move, when a move was blocked all the same. Logged as a
+        ``retrace`` event (``waypoints``: trail points gone back through)."""
+        if len(self._trail) < 2:
+            return False
+        self.recorder.event("retrace", self.robot.time_s(), waypoints=len(self._trail) - 1)
+        try:
+            for q in self._trail[-2::-1]:
+                self._free_move(q)
+            if not np.allclose(self._trail[-1], self.planner.rest_q):
+                self._free_route(self.planner.rest_q)
+        except MoveNotReachedError as err:
+            self._blocked("retrace", err)
+            return False
+        return True
 
     def _swept(self, plan: ApproachPlan, q_end: np.ndarray) -> np.ndarray:
         """(k, 3) world points of the approach line the pad passed on a miss.

@@ -158,3 +158,76 @@ def test_a_move_to_rest_blocked_twice_ends_with_a_slow_guarded_move_there():
     assert events.kinds == ["rest_blocked", "rest_forced"]
     np.testing.assert_allclose(robot.joint_positions(), planner.rest_q)
     assert [c[0] for c in robot.calls[-2:]] == ["guarded", "move"]  # the forced move, then the check it is there
+
+
+class _OnlyTheWayItCame:
+    """Wraps a fake robot: a move to rest from within ``near_m`` of ``centre`` is blocked unless it
+    starts at ``clear_from`` (the arm came to the standoff around the object; a straight move back
+    from there meets it), and the moves listed in ``blocked_legs`` ((from, to) pairs) are blocked too."""
+
+    def __init__(self, robot, rest, centre, near_m, clear_from, blocked_legs=()):
+        self.robot, self.rest, self.clear_from = robot, np.asarray(rest, float), np.asarray(clear_from, float)
+        self.centre, self.near_m = np.asarray(centre, float), near_m
+        self.blocked_legs = [(np.asarray(a, float), np.asarray(b, float)) for a, b in blocked_legs]
+        self.moves: list[np.ndarray] = []
+
+    def __getattr__(self, name):
+        return getattr(self.robot, name)
+
+    def move_joints(self, q, speed_rad_s=1.0):
+        from robots.interface import MoveNotReachedError
+
+        here, q = self.robot.joint_positions(), np.asarray(q, float)
+        self.moves.append(q.copy())
+        blocked = (np.allclose(q, self.rest) and np.linalg.norm(here - self.centre) < self.near_m
+                   and not np.allclose(here, self.clear_from, atol=1e-6))
+        blocked |= any(np.allclose(here, a, atol=1e-6) and np.allclose(q, b) for a, b in self.blocked_legs)
+        if blocked:
+            raise MoveNotReachedError("protective stop: wrist pressed 90 N on the object")
+        self.robot.move_joints(q, speed_rad_s)
+
+
+def _came_around_the_sphere(way_back_blocked: bool = False):
+    """A loop whose arm went rest -> above the sphere -> a standoff beside it by free moves;
+    (world, loop, robot, rest, above, standoff, events). ``way_back_blocked``: the move from the
+    standoff back above the sphere meets it too."""
+    from fakes import FakePlanner, ScriptedStrategy, sphere_rig
+    from reconstruction.gpis import GPIS
+
+    world, rig = sphere_rig()
+    planner = FakePlanner(rig.positioner)
+    rest = planner.rest_q
+    above = world.centre_m + np.array([0.0, 0.0, world.radius_m + 0.05])
+    standoff = world.centre_m + np.array([world.radius_m + 0.03, 0.0, 0.0])
+    robot = _OnlyTheWayItCame(rig.robot, rest, world.centre_m, 0.1, clear_from=above,
+                              blocked_legs=[(standoff, above)] if way_back_blocked else ())
+    rig = dataclasses.replace(rig, robot=robot)
+    events = _Events()
+    loop = ExplorationLoop(rig, planner, ScriptedStrategy([]), GPIS(bounds=rig.prior.bounds()), LoopConfig(),
+                           events)
+    world.pad_m = rest.copy()
+    loop._free_move(above)
+    loop._free_move(standoff)
+    return world, loop, robot, rest, above, standoff, events
+
+
+def test_a_blocked_move_to_rest_goes_back_the_way_the_arm_came():
+    world, loop, robot, rest, above, standoff, events = _came_around_the_sphere()
+    robot.moves.clear()
+    loop._to_rest()
+    assert events.kinds == ["rest_blocked", "retrace"]
+    np.testing.assert_allclose(robot.joint_positions(), rest)
+    # the straight move (blocked), then the trail in reverse: above the sphere, rest
+    assert len(robot.moves) == 3
+    np.testing.assert_allclose(robot.moves[1], above)
+    np.testing.assert_allclose(robot.moves[2], rest)
+    # at rest the trail starts again there
+    assert len(loop._trail) == 1 and np.allclose(loop._trail[0], rest)
+
+
+def test_a_retrace_blocked_too_falls_back_to_the_retreat_along_the_pad_axis():
+    world, loop, robot, rest, above, standoff, events = _came_around_the_sphere(way_back_blocked=True)
+    loop._to_rest()
+    assert events.kinds == ["rest_blocked", "retrace", "retrace_blocked"]
+    assert loop.blocked_moves_summary()["retrace"] == 1
+    np.testing.assert_allclose(robot.joint_positions(), rest)
