@@ -85,7 +85,18 @@ def open_rig(config: BackendConfig) -> Iterator[Rig]:
                            backend=f"robot {config.robot.backend}, sensor {config.sensor.backend}")
         if config.sensor.calibration is not None:
             description["sensor_calibration"] = str(config.sensor.calibration)
-        yield Rig(robot, sensor, ArmKinematics(spec), FixedStand(centre), prior, reference, description, pad)
+        yield Rig(robot, sensor, ArmKinematics(spec), FixedStand(centre), prior, reference, description, pad,
+                  obstacles=_obstacles(config))
+
+
+def _obstacles(config: BackendConfig) -> tuple:
+    """The configured fixed obstacles as (centre, half extent) pairs, and the simulated table."""
+    boxes = tuple((box[:3], box[3:]) for box in config.robot.obstacles_m)
+    if config.robot.backend == "sim":
+        from robots.sim_world import TableSpec
+
+        boxes += (TableSpec().box_m(),)
+    return boxes
 
 
 def _reference(config: BackendConfig):

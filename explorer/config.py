@@ -120,6 +120,21 @@ def _vector3(key: str, value: Any, positive: bool = False) -> tuple[float, float
     return tuple(float(v) for v in value)
 
 
+def _boxes(key: str, value: Any) -> tuple[tuple[float, ...], ...]:
+    """Boxes as six finite numbers each, ``[x, y, z, half_x, half_y, half_z]`` with positive halves."""
+    if not isinstance(value, (list, tuple)):
+        raise _fail(key, f"expected a list of boxes [x, y, z, half_x, half_y, half_z] in metres, got {value!r}")
+    boxes = []
+    for i, box in enumerate(value):
+        if (not isinstance(box, (list, tuple)) or len(box) != 6
+                or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) for v in box)):
+            raise _fail(f"{key}[{i}]", f"expected six numbers [x, y, z, half_x, half_y, half_z] in metres, got {box!r}")
+        if min(box[3:]) <= 0:
+            raise _fail(f"{key}[{i}]", f"the half sizes (the last three numbers) must be positive, got {list(box[3:])}")
+        boxes.append(tuple(float(v) for v in box))
+    return tuple(boxes)
+
+
 def _address(key: str, value: Any, allowed: tuple[int, ...], wiring: str) -> int:
     value = _integer(key, value, 0, 0x7F)
     if value not in allowed:
@@ -145,6 +160,11 @@ class RobotConfig:
         Per-attempt reply timeout, seconds.
     attempts : int
         Tries per request.
+    obstacles_m : tuple of (6,) float
+        What else is fixed in the arm's workspace (the table the stand is on), as axis-aligned
+        boxes ``[x, y, z, half_x, half_y, half_z]``: centre and half size, robot base frame,
+        metres. Free moves keep clear of them (:attr:`explorer.rig.Rig.obstacles`). The simulation
+        adds its own table.
     """
 
     backend: str = "sim"
@@ -154,6 +174,7 @@ class RobotConfig:
     control_rate_hz: float = 100.0
     reply_timeout_s: float = 0.05
     attempts: int = 4
+    obstacles_m: tuple = ()
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -168,6 +189,7 @@ class RobotConfig:
         set_(self, "control_rate_hz", _positive("robot.control_rate_hz", self.control_rate_hz))
         set_(self, "reply_timeout_s", _positive("robot.reply_timeout_s", self.reply_timeout_s))
         set_(self, "attempts", _integer("robot.attempts", self.attempts, 1, 100))
+        set_(self, "obstacles_m", _boxes("robot.obstacles_m", self.obstacles_m))
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""Joint paths for free moves that keep the arm clear of the object's rough box (issue 11).
+"""Joint paths for free moves that keep the arm clear of the object's rough box and the table (issue 11).
 
 A free move (a transfer between touches, the move to rest) went straight in joint space. Between
 two poses on opposite sides of the object that line can sweep the hand or the forearm through the
@@ -79,21 +79,30 @@ class FreePathPlanner:
     lower_rad, upper_rad : (dof,) float
         Joint limits (infinite limits are searched over +-pi).
     config : FreePathConfig
+    obstacles : sequence of ((3,), (3,)) float
+        Fixed boxes in the world frame, (centre, half extent) in metres, kept clear as the prior
+        box is (a table: :attr:`explorer.rig.Rig.obstacles`).
     """
 
-    def __init__(self, spheres, prior, lower_rad, upper_rad, config: FreePathConfig = FreePathConfig()):
+    def __init__(self, spheres, prior, lower_rad, upper_rad, config: FreePathConfig = FreePathConfig(),
+                 obstacles=()):
         self.spheres = spheres
         self.prior = prior
         self.lower_rad = np.where(np.isfinite(lower_rad), lower_rad, -math.pi)
         self.upper_rad = np.where(np.isfinite(upper_rad), upper_rad, math.pi)
         self.config = config
+        self.obstacles = [(np.asarray(c, float).reshape(3), np.asarray(h, float).reshape(3)) for c, h in obstacles]
 
     def clearance_m(self, q: np.ndarray, object_to_world) -> np.ndarray:
-        """(B,) smallest gap between an arm sphere and the prior box for configurations ``q`` (B, dof),
-        metres (negative: a sphere reaches into the box). ``object_to_world`` = (R, t) of the stand."""
+        """(B,) smallest gap between an arm sphere and the prior box or an obstacle for
+        configurations ``q`` (B, dof), metres (negative: a sphere reaches into one).
+        ``object_to_world`` = (R, t) of the stand."""
         rotation, origin = object_to_world
-        centres = (self.spheres.centres_m(q) - origin) @ rotation  # object frame
+        world = self.spheres.centres_m(q)
+        centres = (world - origin) @ rotation  # object frame
         gaps = box_signed_distance_m(centres, self.prior.centre_m, self.prior.half_extent_m) - self.spheres.radii_m
+        for centre, half in self.obstacles:
+            gaps = np.minimum(gaps, box_signed_distance_m(world, centre, half) - self.spheres.radii_m)
         return gaps.min(axis=1) if gaps.shape[1] else np.full(len(centres), np.inf)
 
     def clear(self, q: np.ndarray, object_to_world) -> np.ndarray:

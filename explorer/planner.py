@@ -176,11 +176,15 @@ class ApproachPlanner:
         The arm's resting configuration (seed for the first IK, and the transfer pose).
     collision_links : tuple of str
         Links kept ``arm_clearance_m`` away from the prior box (default: the links before the wrist).
+    obstacles : sequence of ((3,), (3,)) float
+        Fixed boxes in the world frame, (centre, half extent), metres, that free moves keep
+        ``free_move_clearance_m`` away from as from the prior box (:attr:`explorer.rig.Rig.obstacles`).
     """
 
     def __init__(self, kinematics, ik, positioner: Positioner, prior: ObjectPrior,
-                 config: PlannerConfig = PlannerConfig(), rest_q=None, collision_links=None):
+                 config: PlannerConfig = PlannerConfig(), rest_q=None, collision_links=None, obstacles=()):
         self.kin = kinematics
+        self.obstacles = tuple(obstacles)
         self.ik = ik
         self.positioner = positioner
         self.prior = prior
@@ -347,7 +351,7 @@ class ApproachPlanner:
         tool = self.kin.pose_of_one(home, link=self.kin.spec.tool_link)[0]
         spheres = spheres.subset(np.linalg.norm(spheres.centres_m(home[None])[0] - tool, axis=1) > FINGER_EXEMPT_M)
         return FreePathPlanner(spheres, self.prior, self.kin.lower_rad, self.kin.upper_rad,
-                               FreePathConfig(clearance_m=self.config.free_move_clearance_m))
+                               FreePathConfig(clearance_m=self.config.free_move_clearance_m), self.obstacles)
 
     def prior_exit_m(self, target_m: np.ndarray, approach_dir: np.ndarray) -> float:
         """Distance (metres) from ``target_m`` along ``approach_dir`` (object frame) to where the line

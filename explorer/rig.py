@@ -39,6 +39,10 @@ class Rig:
     pad : PadCalibration
         The sensor's pad: force model, compliance and IMU mounting (the simulated pad's in
         simulation, the sensor calibration's on hardware).
+    obstacles : tuple of ((3,), (3,)) float
+        What else is fixed in the workspace, as axis-aligned boxes in the world frame, (centre, half
+        extent) in metres: the table (the simulated one's :meth:`robots.sim_world.TableSpec.box_m`).
+        Free moves keep clear of them as of the prior box; empty: nothing is known.
     """
 
     robot: object
@@ -49,6 +53,7 @@ class Rig:
     reference: object | None
     description: dict
     pad: PadCalibration = field(default_factory=PadCalibration)
+    obstacles: tuple = ()
 
 
 def object_prior(mesh) -> ObjectPrior:

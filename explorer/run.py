@@ -111,7 +111,8 @@ def explore(settings: RunSettings, out_dir: Path, progress=None, resume: bool = 
                        profile_parameters=scene.profile.changed_parameters(),
                        calibration=None if calibration is None else dict(
                            offset_rad=calibration.offset_rad.tolist(),
-                           link_length_error_m=calibration.link_length_error_m)), scene.pad)
+                           link_length_error_m=calibration.link_length_error_m)), scene.pad,
+                  obstacles=() if scene.world.table is None else (scene.world.table.box_m(),))
         return run_on_rig(rig, settings, out_dir, progress, resume, observer, status=status)
 
 
@@ -144,11 +145,12 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
     wall0 = time.perf_counter()
     loop_settings = LoopConfig(**{**asdict(settings.loop), "touches": settings.touches})
     prior = rig.prior
-    planner = ApproachPlanner(rig.kinematics, PadIK(rig.kinematics), rig.positioner, prior, settings.planner)
+    planner = ApproachPlanner(rig.kinematics, PadIK(rig.kinematics), rig.positioner, prior, settings.planner,
+                              obstacles=rig.obstacles)
     gpis = GPIS(bounds=prior.bounds(), use_normals=settings.use_normals)
     configuration = dict(asdict(settings), detector=asdict(PressureDetectorConfig()),
                          settling=asdict(LOOP_SETTLING), pad=rig.pad.as_dict(),
-                         stand_centre_m=rig.positioner.centre_m,
+                         stand_centre_m=rig.positioner.centre_m, obstacles_m=list(rig.obstacles),
                          prior=dict(centre_m=prior.centre_m, half_extent_m=prior.half_extent_m))
     metadata = dict(rig.description, seed=settings.seed, configuration=jsonable(configuration))
     recorded = None

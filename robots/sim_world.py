@@ -43,6 +43,12 @@ class TableSpec:
         if min(self.size_xy_m) <= 0 or self.thickness_m <= 0 or self.height_m < self.thickness_m:
             raise ValueError(f"table dimensions must be positive and height >= thickness, got {self}")
 
+    def box_m(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """The table as an axis-aligned box, world frame, metres: (centre (3,), half extent (3,)),
+        from its top face down to the floor (a free move must not pass under it either)."""
+        half = (self.size_xy_m[0] / 2.0, self.size_xy_m[1] / 2.0, self.height_m / 2.0)
+        return (float(self.center_xy_m[0]), float(self.center_xy_m[1]), self.height_m / 2.0), half
+
 
 @dataclass(frozen=True)
 class ObjectHandle:

@@ -72,6 +72,9 @@ def test_every_example_config_loads(name):
     ({"robot": {"control_rate_hz": "fast"}}, r"robot\.control_rate_hz: expected a positive number"),
     ({"robot": {"reply_timeout_s": -1}}, r"robot\.reply_timeout_s: expected a positive number"),
     ({"robot": {"spec": ""}}, r"robot\.spec"),
+    ({"robot": {"obstacles_m": [0.4, -0.3, 0.37, 0.3, 0.4, 0.37]}}, r"robot\.obstacles_m\[0\]: expected six numbers"),
+    ({"robot": {"obstacles_m": [[0.4, -0.3, 0.37, 0.3, 0.0, 0.37]]}}, r"robot\.obstacles_m\[0\]: the half sizes"),
+    ({"robot": {"obstacles_m": "table"}}, r"robot\.obstacles_m: expected a list of boxes"),
     ({"robot": []}, r"robot: must be a table"),
     ({"sensor": {"backend": "spi"}}, r"sensor\.backend: 'spi' is not one of"),
     ({"sensor": {"bmp280_address": 0x99}}, r"sensor\.bmp280_address: 153 must be in 0\.\.127"),
@@ -210,3 +213,14 @@ def test_object_sections_resolve_paths_and_expand_a_single_size(tmp_path):
     assert config.object.centre_m == (0.3, -0.3, 0.9)
     assert config.object.reference_mesh == tmp_path / "mug.stl"
     assert (config.exploration.touches, config.exploration.use_normals) == (7, False)
+
+
+def test_obstacles_reach_the_rig_and_the_simulation_adds_its_table():
+    from explorer.backends import _obstacles
+    from robots.sim_world import TableSpec
+
+    config = config_from_dict({"robot": {"backend": "emulated", "obstacles_m": [[0.4, -0.3, 0.37, 0.3, 0.4, 0.37]]},
+                               "sensor": {"backend": "emulated"}})
+    assert config.robot.obstacles_m == ((0.4, -0.3, 0.37, 0.3, 0.4, 0.37),)
+    assert _obstacles(config) == (((0.4, -0.3, 0.37), (0.3, 0.4, 0.37)),)
+    assert _obstacles(config_from_dict({})) == (TableSpec().box_m(),)

@@ -89,6 +89,26 @@ def test_the_box_is_taken_in_the_object_frame_of_the_stand():
     assert not planner.segment_clear(np.array([0.3, -0.3, 0.0]), np.array([0.3, 0.3, 0.0]), turned)
 
 
+def test_a_fixed_obstacle_is_kept_clear_in_the_world_frame_whatever_the_stand():
+    """A table (world frame) under a far-off prior box: the straight line through the table is
+    refused and the plan goes around it; the stand's turn moves the prior box, not the table."""
+    prior = ObjectPrior(np.array([0.0, 0.0, 0.8]), np.full(3, 0.05))  # far above the moves below
+    table = (np.array([0.0, 0.0, -0.2]), np.array([0.05, 0.5, 0.2]))  # a slab across x = 0 below z = 0
+    planner = FreePathPlanner(_PointArm(), prior, np.full(3, -1.0), np.full(3, 1.0),
+                              FreePathConfig(clearance_m=0.02, check_step_rad=0.005, extend_rad=0.2),
+                              obstacles=[table])
+    start, goal = np.array([-0.3, 0.0, -0.2]), np.array([0.3, 0.1, -0.2])
+    np.testing.assert_allclose(planner.clearance_m(np.array([[0.0, 0.0, 0.1]]), IDENTITY), [0.1 - 0.01])
+    turned = (np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]), np.zeros(3))
+    for stand in (IDENTITY, turned):
+        assert not planner.segment_clear(start, goal, stand)
+    path = planner.plan(start, goal, IDENTITY)
+    assert path is not None and len(path) >= 2
+    assert _dense_clearance(planner, start, path) >= 0.02 - 0.0025
+    without = FreePathPlanner(_PointArm(), prior, np.full(3, -1.0), np.full(3, 1.0))
+    assert without.segment_clear(start, goal, IDENTITY)
+
+
 @pytest.mark.parametrize("field, value", [("clearance_m", -0.01), ("check_step_rad", 0.0), ("extend_rad", -1.0),
                                           ("max_samples", 0)])
 def test_bad_config_is_named(field, value):

@@ -84,6 +84,20 @@ def test_world_steps_listeners_and_hooks_in_order(world):
     assert len(calls) == 6 and world.time_s == pytest.approx(5 * dt)
 
 
+def test_the_tables_box_is_the_simulated_tables_top_and_footprint():
+    """``TableSpec.box_m`` (what free moves keep clear of) against PyBullet's own bounding box of
+    the table body: same top face and footprint; the box goes down to the floor."""
+    with SimWorld() as sim:
+        table = next(b for b in range(pybullet.getNumBodies(physicsClientId=sim.client))
+                     if sim.body_name(pybullet.getBodyUniqueId(b, physicsClientId=sim.client)) == "table")
+        lo, hi = (np.array(v) for v in pybullet.getAABB(table, physicsClientId=sim.client))
+        centre, half = (np.array(v) for v in sim.table.box_m())
+    margin = 0.005  # PyBullet pads AABBs by its collision margin
+    np.testing.assert_allclose(centre[:2] + half[:2], hi[:2], atol=margin)
+    np.testing.assert_allclose(centre[:2] - half[:2], lo[:2], atol=margin)
+    assert abs(centre[2] + half[2] - hi[2]) < margin and centre[2] - half[2] == 0.0
+
+
 def test_world_errors_name_the_problem(tmp_path, box_urdf):
     with pytest.raises(ValueError, match="time_step_s"):
         SimWorld(time_step_s=0.1)
