@@ -569,7 +569,7 @@ class ExplorationLoop:
             return False
         self.recorder.event("retrace", self.robot.time_s(), waypoints=len(self._trail) - 1)
         try:
-            for q in self._trail[-2::-1]:
+            for q in self._trail[::-1]:  # the first: where the arm should stand, e.g. after a retract
                 self._free_move(q)
             if not np.allclose(self._trail[-1], self.planner.rest_q):
                 self._free_route(self.planner.rest_q)
@@ -593,14 +593,29 @@ class ExplorationLoop:
         return line[along <= reached + self.config.free_space_value]
 
     def _retract(self, plan: ApproachPlan) -> None:
-        """Back to the standoff; if a contact blocks the direct move, back out along the path."""
+        """Back to the standoff the way the pad came in: through the approach line's waypoints in
+        reverse, from the last one the pad had passed (:meth:`_passed_waypoint`), at transfer
+        speed, then onto the standoff with the protective stop. A straight joint move from deep in
+        a bowl or a ring's hole swings the wrist into the rim (93 blocked retracts in the 32 seed-1
+        split runs before, BENCHMARKS.md). Blocked all the same (``retract_blocked`` event): to
+        rest (:meth:`_to_rest`)."""
         speed = self.config.transfer_speed_rad_s
+        passed = self._passed_waypoint(plan)
         try:
+            if passed > 0:
+                self.robot.guarded_move(plan.path_q[passed::-1], stop=lambda: False, speed_rad_s=speed)
             self.robot.move_joints(plan.standoff_q, speed)
         except MoveNotReachedError as err:
             self._blocked("retract", err)
-            self.robot.guarded_move(plan.path_q[::-1], stop=lambda: False, speed_rad_s=0.2 * speed)
             self._to_rest()
+
+    def _passed_waypoint(self, plan: ApproachPlan) -> int:
+        """Index of the last waypoint of ``plan.path_q`` the pad has gone past along the approach
+        line (0: still at or behind the standoff); going back from there never pushes it deeper."""
+        pad = self.kin.pose_of_one(self.robot.joint_positions())[0]
+        along = (plan.path_world_m - plan.path_world_m[0]) @ plan.approach_world
+        reached = float((pad - plan.path_world_m[0]) @ plan.approach_world)
+        return max(int(np.searchsorted(along, reached + 1e-9, side="right")) - 1, 0)
 
     def _contact_record(self, record: TouchOutcome) -> TouchOutcome:
         record.baseline_pa = self._baseline_pa

@@ -217,10 +217,11 @@ def test_a_blocked_move_to_rest_goes_back_the_way_the_arm_came():
     loop._to_rest()
     assert events.kinds == ["rest_blocked", "retrace"]
     np.testing.assert_allclose(robot.joint_positions(), rest)
-    # the straight move (blocked), then the trail in reverse: above the sphere, rest
-    assert len(robot.moves) == 3
-    np.testing.assert_allclose(robot.moves[1], above)
-    np.testing.assert_allclose(robot.moves[2], rest)
+    # the straight move (blocked), then the trail in reverse: the standoff (where the arm stands),
+    # above the sphere, rest
+    assert len(robot.moves) == 4
+    for move, q in zip(robot.moves[1:], (standoff, above, rest)):
+        np.testing.assert_allclose(move, q)
     # at rest the trail starts again there
     assert len(loop._trail) == 1 and np.allclose(loop._trail[0], rest)
 
@@ -231,3 +232,43 @@ def test_a_retrace_blocked_too_falls_back_to_the_retreat_along_the_pad_axis():
     assert events.kinds == ["rest_blocked", "retrace", "retrace_blocked"]
     assert loop.blocked_moves_summary()["retrace"] == 1
     np.testing.assert_allclose(robot.joint_positions(), rest)
+
+
+def test_the_retract_goes_back_along_the_approach_line_never_deeper():
+    """After a press the pad goes back through the approach waypoints it had passed, in reverse, to
+    the standoff: a straight joint move from deep in a bowl swings the wrist into its rim."""
+    from explorer.touch import Touch
+    from fakes import FakePlanner, FakeRobot, ScriptedStrategy, sphere_rig
+    from reconstruction.gpis import GPIS
+
+    class Recorded(FakeRobot):
+        def __init__(self, world):
+            super().__init__(world)
+            self.calls = []
+
+        def move_joints(self, q, speed_rad_s=1.0):
+            self.calls.append(("move", np.asarray(q, float).copy(), self.joint_positions()))
+            super().move_joints(q, speed_rad_s)
+
+        def guarded_move(self, path, stop, speed_rad_s=0.2):
+            self.calls.append(("guarded", np.asarray(path, float).copy(), self.joint_positions()))
+            return super().guarded_move(path, stop, speed_rad_s)
+
+    world, rig = sphere_rig()
+    robot = Recorded(world)
+    rig = dataclasses.replace(rig, robot=robot)
+    planner = FakePlanner(rig.positioner)
+    touch = Touch(np.array([world.radius_m, 0.0, 0.0]), np.array([-1.0, 0.0, 0.0]), strategy="scripted")
+    loop = ExplorationLoop(rig, planner, ScriptedStrategy([touch]), GPIS(bounds=rig.prior.bounds()), LoopConfig())
+    record = loop.step()
+    assert record.kind == "contact"
+    plan = planner.plan(touch)
+    along = lambda q: float((np.asarray(q) - plan.path_world_m[0]) @ plan.approach_world)  # noqa: E731
+    kind, back, pressed_at = robot.calls[-2]
+    assert kind == "guarded" and robot.calls[-1][0] == "move"
+    np.testing.assert_allclose(robot.calls[-1][1], plan.standoff_q)
+    k = len(back) - 1
+    assert k >= 1, "the press went past at least one waypoint"
+    np.testing.assert_allclose(back, plan.path_q[k::-1])  # the approach waypoints in reverse
+    assert along(back[0]) <= along(pressed_at) < along(plan.path_q[k + 1])  # the last passed: never deeper
+    np.testing.assert_allclose(robot.joint_positions(), plan.standoff_q)
