@@ -11,8 +11,8 @@ keep ``clearance_m`` outside that box cannot meet the object.
 RRT-connect (Kuffner & LaValle, ICRA 2000: two trees, from start and goal, each grown toward
 random joint configurations and greedily toward the other) and shortens the result by random
 shortcuts. Written here rather than taken from OMPL or pybullet-planning: those need the robot in
-their own collision world, while this test is the box the loop knows, the same in simulation and on
-hardware, and 100 lines of numpy.
+their own collision world, while this test is the boxes the loop knows (the prior box and the rig's
+fixed obstacles, e.g. the table), the same in simulation and on hardware, and 100 lines of numpy.
 """
 from __future__ import annotations
 

@@ -41,8 +41,9 @@ class Rig:
         simulation, the sensor calibration's on hardware).
     obstacles : tuple of ((3,), (3,)) float
         What else is fixed in the workspace, as axis-aligned boxes in the world frame, (centre, half
-        extent) in metres: the table (the simulated one's :meth:`robots.sim_world.TableSpec.box_m`).
-        Free moves keep clear of them as of the prior box; empty: nothing is known.
+        extent) in metres: the table (the simulated one's :meth:`robots.sim_world.TableSpec.box_m`;
+        on hardware the configuration's ``robot.obstacles_m``). Free moves keep clear of them as of
+        the prior box; empty: nothing is known.
     """
 
     robot: object
