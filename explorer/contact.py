@@ -110,6 +110,10 @@ class ContactQuality:
     peak_force_n : float or None
         The largest force of the press (from its highest pressure reading), newtons; ``force_n``
         is the settled one, which a creeping or cooling pad reads lower. None: not known.
+    loosely_settled : bool
+        The orientation never passed the settling test, only the pipeline's looser fallback
+        (``ContactPipeline.loose_settling``): the pad still rocked by up to that angle, so the
+        normal is doubtful.
     """
 
     force_n: float
@@ -120,6 +124,7 @@ class ContactQuality:
     rim_distance_m: float | None = None
     doubtful: bool = False
     peak_force_n: float | None = None
+    loosely_settled: bool = False
 
     @property
     def approach_angle_rad(self) -> float | None:
@@ -272,7 +277,9 @@ class DoubtRule:
         return bool(force < self.side_force_n and quality.tilt_rad < self.side_tilt_rad)
 
     def doubtful(self, quality: "ContactQuality") -> bool:
-        """Whether ``quality`` (with ``rim_distance_m``) marks a doubtful normal."""
+        """Whether ``quality`` (loosely settled, or with ``rim_distance_m``) marks a doubtful normal."""
+        if getattr(quality, "loosely_settled", False):
+            return True
         if quality.rim_distance_m is None:
             return False
         leaning = quality.approach_cosine is None or quality.approach_cosine < np.cos(self.approach_angle_rad)
@@ -301,6 +308,11 @@ class ContactPipeline:
         The sensor's pad: force model, compliance, IMU mounting.
     settling : SettlingConfig
         When the orientation counts as settled.
+    loose_settling : SettlingConfig, optional
+        A press that never passes ``settling`` is measured with this looser test instead (a contact
+        marked ``loosely_settled``, hence doubtful) before it counts as no contact. The pad of a
+        press on a rim or in a curved hollow can rock by a degree for the whole hold while it
+        rests where it touched (:meth:`explorer.loop.LoopConfig.loose_settling`). None: no fallback.
     centre_of_pressure : bool
         Place the contact at the centre of pressure the spring's deflection gives (:func:`pad_load`)
         instead of the pad-face centre (False: the pipeline before issue 11, for comparison).
@@ -313,7 +325,7 @@ class ContactPipeline:
 
     def __init__(self, kinematics, pad: PadCalibration, settling: SettlingConfig = LOOP_SETTLING,
                  centre_of_pressure: bool = True, doubt: DoubtRule | None = None,
-                 release_threshold_pa: float | None = None):
+                 release_threshold_pa: float | None = None, loose_settling: SettlingConfig | None = None):
         if release_threshold_pa is not None and not (np.isfinite(release_threshold_pa) and release_threshold_pa > 0):
             raise ValueError(f"release_threshold_pa must be None or a positive pressure, got {release_threshold_pa!r}")
         self.kinematics = kinematics
@@ -321,6 +333,7 @@ class ContactPipeline:
         self.doubt = doubt if doubt is not None else DoubtRule()
         self.pad = pad
         self.settling = settling
+        self.loose_settling = loose_settling
         self.centre_of_pressure = centre_of_pressure
 
     def measure(self, readings: Sequence[Reading], baseline_pa: float, q: np.ndarray, frame: ObjectFrame,
@@ -343,8 +356,8 @@ class ContactPipeline:
         Raises
         ------
         NoContactMeasured
-            The orientation never settled, the pressure saturated, or (``DoubtRule.side_force_n``)
-            the press met the pad's side.
+            The orientation never settled (not even by ``loose_settling``), the pressure saturated,
+            or (``DoubtRule.side_force_n``) the press met the pad's side.
         PressReleased
             (``release_threshold_pa``) The pad had let go before its orientation settled (tested
             after the side test: a light press on the pad's side that let go stays one).
@@ -352,11 +365,17 @@ class ContactPipeline:
         kin = self.kinematics
         pivot_pose = kin.forward_kinematics(q, link=kin.spec.pivot_link)
         pivot = pivot_pose.position_m
+        loose = False
         try:
-            contact = oriented_contact(readings, pivot, kin.pivot_to_pad_in_body, baseline_pa,
-                                       pad=self.pad.force_model, settling=self.settling,
-                                       alignment=self.pad.alignment)
-        except (OrientationNotSettledError, ValueError) as err:  # ValueError: saturated, too few readings
+            contact = self._oriented(readings, pivot, baseline_pa, self.settling)
+        except OrientationNotSettledError as err:
+            if self.loose_settling is None:
+                raise NoContactMeasured(str(err)) from err
+            try:
+                contact, loose = self._oriented(readings, pivot, baseline_pa, self.loose_settling), True
+            except ValueError as loose_err:
+                raise NoContactMeasured(str(loose_err)) from loose_err
+        except ValueError as err:  # saturated, too few readings
             raise NoContactMeasured(str(err)) from err
         load = pad_load(pivot_pose.rotation, contact.normal, contact.force_n, self.pad.spring_stiffness_nm_per_rad,
                         self.pad.half_width_m)
@@ -369,7 +388,7 @@ class ContactPipeline:
         quality = ContactQuality(contact.force_n, len(readings), cosine, load.tilt_rad,
                                  tuple(float(v) for v in load.pad_uv_m),
                                  load.rim_distance_m(self.pad.half_width_m),
-                                 peak_force_n=self.force_estimate_n(peak_rise_pa))
+                                 peak_force_n=self.force_estimate_n(peak_rise_pa), loosely_settled=loose)
         quality = replace(quality, doubtful=self.doubt.doubtful(quality))
         if self.doubt.side_contact(quality):
             raise NoContactMeasured(f"the press reached {quality.peak_force_n:.2f} N with the pad turned "
@@ -382,6 +401,10 @@ class ContactPipeline:
                                     f"(peak {quality.peak_force_n:.2f} N), below the contact's end at "
                                     f"{self.release_threshold_pa:.0f} Pa ({released_n:.2f} N)")
         return MeasuredContact(contact, p_obj[0], normal, quality)
+
+    def _oriented(self, readings, pivot: np.ndarray, baseline_pa: float, settling: SettlingConfig) -> OrientedContact:
+        return oriented_contact(readings, pivot, self.kinematics.pivot_to_pad_in_body, baseline_pa,
+                                pad=self.pad.force_model, settling=settling, alignment=self.pad.alignment)
 
     def pad_centre(self, q: np.ndarray, frame: ObjectFrame) -> np.ndarray:
         """(3,) pad-face centre from the encoders' forward kinematics, object frame, metres: where a

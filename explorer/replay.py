@@ -296,10 +296,13 @@ class SessionReplay:
             self.loop_config = replace(self.loop_config, drop_released_presses=False)
         if "swept_free_space" not in recorded_loop:  # recorded before the swept lines counted
             self.loop_config = replace(self.loop_config, swept_free_space=False)
+        if "loose_settle_deviation_rad" not in recorded_loop:  # recorded before the loose fallback
+            self.loop_config = replace(self.loop_config, loose_settle_deviation_rad=None)
         doubt = (DoubtRule() if self.teleop else DoubtRule(-np.inf) if self.legacy_contacts
                  else self.loop_config.doubt_rule())
         self.pipeline = ContactPipeline(self.kinematics, self.pad, self.settling,
-                                        centre_of_pressure=centre_of_pressure, doubt=doubt)
+                                        centre_of_pressure=centre_of_pressure, doubt=doubt,
+                                        loose_settling=None if self.teleop else self.loop_config.loose_settling(self.settling))
         if self.joint_states.dof not in (0, spec.dof):
             raise ValueError(f"{session_dir}: joint_states.csv has {self.joint_states.dof} joints but "
                              f"robot {robot_name!r} has {spec.dof}")

@@ -22,6 +22,9 @@ from common.rotations import rotation_from_wxyz, wxyz_from_rotation
 
 _IDENTITY_WXYZ = (1.0, 0.0, 0.0, 0.0)
 
+#: Values of :attr:`SettlingConfig.window`.
+WINDOW_CHOICES = ("first", "steadiest")
+
 
 class OrientationNotSettledError(ValueError):
     """No window of the contact's readings had a steady enough orientation."""
@@ -39,15 +42,22 @@ class SettlingConfig:
         Steady means every orientation in the window is within this angle of the window's mean,
         radians (default 1 degree; BNO055 white noise is ~0.07 degrees per axis).
     average_window_s : float
-        The normal is averaged over the last ``average_window_s`` of the first steady window,
+        The normal is averaged over the last ``average_window_s`` of the chosen steady window,
         seconds (<= settle_window_s).
+    window : str
+        Which steady window: ``"first"`` (the loop's hold stops there) or ``"steadiest"`` (the one
+        whose largest deviation from its mean is smallest: a press read after the hold, whose pad
+        may still have been turning when a loose test first passed).
     """
 
     settle_window_s: float = 0.1
     max_deviation_rad: float = math.radians(1.0)
     average_window_s: float = 0.05
+    window: str = "first"
 
     def __post_init__(self) -> None:
+        if self.window not in WINDOW_CHOICES:
+            raise ValueError(f"window must be one of {', '.join(WINDOW_CHOICES)}, got {self.window!r}")
         if not self.settle_window_s > 0.0:
             raise ValueError(f"settle_window_s must be > 0 s, got {self.settle_window_s}")
         if not self.max_deviation_rad > 0.0:
@@ -173,7 +183,7 @@ def estimate_normal(
         raise ValueError(f"baseline_pa must be finite, got {baseline_pa}")
     readings = list(readings)
     times, quats = _times_and_quats(readings)
-    start, stop, deviation = _first_settled_window(times, quats, settling)
+    start, stop, deviation = _settled_window(times, quats, settling)
     first_averaged = start + int(np.searchsorted(times[start:stop], times[stop - 1] - settling.average_window_s))
     window = slice(first_averaged, stop)
     mean_quat = average_quaternion(quats[window])
@@ -247,9 +257,11 @@ def _times_and_quats(readings: Sequence[Reading]) -> tuple[np.ndarray, np.ndarra
     return times, quats
 
 
-def _first_settled_window(times: np.ndarray, quats: np.ndarray,
-                          settling: SettlingConfig) -> tuple[int, int, float]:
-    """[start, stop) of the first span >= settle_window_s whose orientations all lie near their mean."""
+def _settled_window(times: np.ndarray, quats: np.ndarray,
+                    settling: SettlingConfig) -> tuple[int, int, float]:
+    """[start, stop) and deviation of the first (or the steadiest) span >= settle_window_s whose
+    orientations all lie within ``max_deviation_rad`` of their mean."""
+    best = None
     for stop in range(1, len(times) + 1):
         start = int(np.searchsorted(times, times[stop - 1] - settling.settle_window_s, side="right")) - 1
         if start < 0:
@@ -259,7 +271,12 @@ def _first_settled_window(times: np.ndarray, quats: np.ndarray,
         cosines = np.clip(np.abs(window @ mean) / np.linalg.norm(window, axis=1), 0.0, 1.0)
         deviation = float(2.0 * np.arccos(cosines.min()))
         if deviation <= settling.max_deviation_rad:
-            return start, stop, deviation
+            if settling.window == "first":
+                return start, stop, deviation
+            if best is None or deviation < best[2]:
+                best = (start, stop, deviation)
+    if best is not None:
+        return best
     span = times[-1] - times[0]
     raise OrientationNotSettledError(
         f"orientation never settled: no {settling.settle_window_s * 1e3:.0f} ms window of the "

@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from sensor.contact_detection import PressureContactDetector
-from sensor.normal_estimation import (ImuAlignment, OrientationNotSettledError, average_quaternion,
+from sensor.normal_estimation import (ImuAlignment, OrientationNotSettledError, SettlingConfig, average_quaternion,
                                       estimate_normal, face_normal_world, oriented_contact)
 from sensor.oriented_contact import OrientedContact
 from common.pad_state import PadState
@@ -88,6 +88,24 @@ def test_unsettled_orientation_gives_a_clear_error():
         estimate_normal([], BASELINE)
     with pytest.raises(OrientationNotSettledError):  # too short to fill a settling window
         estimate_normal(readings(times[:5], [quat_about_x(0.0)] * 5), BASELINE)
+
+
+def test_the_steadiest_window_is_read_where_the_first_would_catch_the_pad_turning():
+    """A pad that turns slowly (4 deg/s) and then rests at 20 deg: a 1.5 deg test first passes while
+    it turns, 1.2 s before it rests; the steadiest window is the resting one."""
+    times = np.arange(0.0, 2.0, 0.01)
+    rest = math.radians(20.0)
+    angles = np.where(times < 1.5, rest - math.radians(4.0) * (1.5 - times), rest)
+    stream = readings(times, [quat_about_x(a) for a in angles])
+    loose = SettlingConfig(settle_window_s=0.15, max_deviation_rad=math.radians(1.5))
+    expected = np.array([0.0, math.sin(rest), -math.cos(rest)])
+    first = estimate_normal(stream, BASELINE, settling=loose)
+    assert first.t_s < 0.5 and angle_deg(first.normal, expected) > 3.0
+    steadiest = estimate_normal(stream, BASELINE, settling=replace(loose, window="steadiest"))
+    assert steadiest.t_s >= 1.5 + 0.15 and steadiest.deviation_rad < 1e-9
+    np.testing.assert_allclose(steadiest.normal, expected, atol=1e-9)
+    with pytest.raises(ValueError, match="window must be one of first, steadiest"):
+        SettlingConfig(window="last")
 
 
 def test_mounting_and_reference_rotations_are_undone():

@@ -120,6 +120,45 @@ def test_a_pad_on_its_rim_is_doubtful_and_a_flat_head_on_pad_is_not():
     assert not flat.quality.doubtful and flat.quality.rim_distance_m == pytest.approx(0.009)
 
 
+def rocking_readings(body: Rotation, amplitude_rad: float, force_n: float = 1.5, n: int = 120,
+                     dt_s: float = 0.01) -> list[Reading]:
+    """A press whose pad rocks about ``body`` by +-``amplitude_rad`` (about the pad's x axis, a
+    0.05 s period: whole periods in a 0.15 s window) for the whole hold."""
+    pressure = BASELINE_PA + PadResponse().pressure_rise_pa(force_n)
+    out = []
+    for i in range(n):
+        rock = Rotation.from_rotvec([amplitude_rad * np.sin(2 * np.pi * i * dt_s / 0.05), 0.0, 0.0])
+        out.append(Reading(i * dt_s, pressure, tuple(wxyz_from_rotation(body * rock)), (0.0, 0.0, 0.0),
+                           (0.0, 0.0, -9.81), 25.0))
+    return out
+
+
+def test_a_pad_that_rocks_is_a_doubtful_contact_only_with_the_loose_fallback():
+    """Rocking by +-0.7 deg never passes the loop's 0.5 deg test: no contact without the fallback; with
+    it a doubtful contact whose normal is the rocking's centre (the mean of the whole window). Rocking by +-3
+    deg fails both."""
+    from explorer.contact import LOOP_SETTLING, NoContactMeasured
+    from explorer.loop import LoopConfig
+
+    body = Rotation.from_euler("y", np.radians(5.0))
+    pad = PadCalibration(compliance_m_per_n=0.0, spring_stiffness_nm_per_rad=K_NM_PER_RAD)
+    frame = ObjectFrame(np.eye(3), np.zeros(3))
+    strict = ContactPipeline(TiltedToolKinematics(np.zeros(3)), pad)
+    with pytest.raises(NoContactMeasured, match="never settled"):
+        strict.measure(rocking_readings(body, np.radians(0.7)), BASELINE_PA, np.zeros(3), frame)
+    loose = ContactPipeline(TiltedToolKinematics(np.zeros(3)), pad,
+                            loose_settling=LoopConfig().loose_settling(LOOP_SETTLING))
+    measured = loose.measure(rocking_readings(body, np.radians(0.7)), BASELINE_PA, np.zeros(3), frame)
+    assert measured.quality.loosely_settled and measured.quality.doubtful
+    expected = -body.apply([0.0, 0.0, 1.0])
+    assert np.degrees(np.arccos(np.clip(measured.normal @ expected, -1.0, 1.0))) < 0.15
+    settled = loose.measure(press_readings(body, 1.5), BASELINE_PA, np.zeros(3), frame)
+    assert not settled.quality.loosely_settled and not settled.quality.doubtful
+    with pytest.raises(NoContactMeasured, match="1.50 deg"):
+        loose.measure(rocking_readings(body, np.radians(3.0)), BASELINE_PA, np.zeros(3), frame)
+    assert LoopConfig(loose_settle_deviation_rad=None).loose_settling(LOOP_SETTLING) is None
+
+
 def test_a_soft_press_that_did_not_turn_the_pad_is_no_contact():
     """Below the side-contact force the pad must have turned (yielded by its spring) or the press
     met the pad's side: no contact. Without the test (teleoperation) a light press is a contact."""
