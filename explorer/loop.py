@@ -166,7 +166,8 @@ class LoopConfig:
     loose_settle_deviation_rad : float or None
         A press whose orientation never settles (no window of the settling test within its 0.5 deg)
         is measured again with this looser bound, from the mean of its steadiest window, as a doubtful contact
-        (:meth:`loose_settling`); only presses that fail this too are ``no_normal``. On a rim or
+        (:meth:`loose_settling`; the loop presses on and may repeat it, as any doubtful contact); only
+        presses that fail this too are ``no_normal``. Teleoperation keeps the strict test. On a rim or
         in a curved hollow the pad can rock by a degree for the whole hold while it rests where it
         touched: 5-16 % of the budget on bowls, rings, plates and lids. Chosen on the tuning split
         (BENCHMARKS.md). None: the loop before 2026-11-27.
