@@ -278,7 +278,7 @@ class DoubtRule:
 
     def doubtful(self, quality: "ContactQuality") -> bool:
         """Whether ``quality`` (loosely settled, or with ``rim_distance_m``) marks a doubtful normal."""
-        if getattr(quality, "loosely_settled", False):
+        if quality.loosely_settled:
             return True
         if quality.rim_distance_m is None:
             return False
