@@ -32,7 +32,7 @@ import numpy as np
 from explorer.config import ExplorationConfig
 from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, PressReleased,
                               wants_realign)
-from explorer.evidence import SurfaceEvidence
+from explorer.evidence import SurfaceEvidence, with_swept_free_space
 from explorer.motion_time import MotionTimeEstimator
 from explorer.planner import ApproachPlan, ApproachPlanner
 from explorer.rig import Rig
@@ -154,6 +154,13 @@ class LoopConfig:
         (:func:`explorer.evidence.with_swept_free_space`): the probe past a phantom lid or through a
         ring's closed hole. The loop's own field, which the strategy explores, does not. False: runs
         before 2026-11-27.
+    reconstruction_free_space_noise : float or None
+        Standard deviation of those rows: firmer than the loop's ``free_space_noise`` (a miss's rows),
+        since a row is only added where the final field still puts surface inside the line the pad
+        passed. Chosen on the tuning split; the misses' points were left out after the held-out
+        split showed a miss whose pad had slid past a tool's handle on its side (BENCHMARKS.md,
+        "Firmer free space in the reconstruction"). None: ``free_space_noise`` (runs before
+        2026-11-27).
     drop_released_presses : bool
         A press whose settled force lies below the contact detector's end threshold had let go
         before the orientation settled (:class:`explorer.contact.PressReleased`): ``no_normal``,
@@ -198,6 +205,7 @@ class LoopConfig:
     side_contact_tilt_rad: float = float(np.radians(12.0))
     drop_released_presses: bool = True
     swept_free_space: bool = True
+    reconstruction_free_space_noise: float | None = 0.002
     loose_settle_deviation_rad: float | None = float(np.radians(1.5))
 
     def loose_settling(self, settling: SettlingConfig) -> SettlingConfig | None:
@@ -208,6 +216,14 @@ class LoopConfig:
             return None
         return replace(settling, max_deviation_rad=self.loose_settle_deviation_rad, window="steadiest",
                        average_window_s=settling.settle_window_s)
+
+    def reconstruction_field(self, gpis: GPIS, records) -> tuple[GPIS, int]:
+        """The field the run's reconstruction is meshed from (``gpis`` plus the free-space rows of
+        ``swept_free_space``; ``gpis`` itself is unchanged) and the number of rows it adds."""
+        if not self.swept_free_space:
+            return gpis, 0
+        noise = self.free_space_noise if self.reconstruction_free_space_noise is None else self.reconstruction_free_space_noise
+        return with_swept_free_space(gpis, records, self.free_space_value, noise)
 
     def doubt_rule(self) -> DoubtRule:
         """The doubtful-contact rule of these settings."""

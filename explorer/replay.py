@@ -50,7 +50,7 @@ from explorer import outputs
 from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, PressReleased,
                               wants_realign)
 from explorer.evaluation import jsonable
-from explorer.evidence import SurfaceEvidence, with_swept_free_space
+from explorer.evidence import SurfaceEvidence
 from explorer.loop import LoopConfig
 from explorer.outputs import add_errors, write_figures, write_mesh
 from explorer.planner import PlannerConfig, approach_line
@@ -298,6 +298,8 @@ class SessionReplay:
             self.loop_config = replace(self.loop_config, swept_free_space=False)
         if "loose_settle_deviation_rad" not in recorded_loop:  # recorded before the loose fallback
             self.loop_config = replace(self.loop_config, loose_settle_deviation_rad=None)
+        if "reconstruction_free_space_noise" not in recorded_loop:  # meshed with the loop's free-space noise
+            self.loop_config = replace(self.loop_config, reconstruction_free_space_noise=None)
         doubt = (DoubtRule() if self.teleop else DoubtRule(-np.inf) if self.legacy_contacts
                  else self.loop_config.doubt_rule())
         self.pipeline = ContactPipeline(self.kinematics, self.pad, self.settling,
@@ -567,9 +569,7 @@ class SessionReplay:
         resolution = settings.mesh_resolution or int(self.configuration.get("mesh_resolution", 96))
         field = result.gpis
         if self.loop_config.swept_free_space and not self.teleop:  # as the run's reconstruction had it
-            cfg = self.loop_config
-            field, metrics["swept_free_space_rows"] = with_swept_free_space(
-                field, result.touches, cfg.free_space_value, cfg.free_space_noise)
+            field, metrics["swept_free_space_rows"] = self.loop_config.reconstruction_field(field, result.touches)
         mesh = write_mesh(field, resolution, out, metrics)
         add_errors(metrics, mesh, self.truth, result.points_m, result.normals)
         outputs.write_json(out / "metrics.json", jsonable(metrics))

@@ -29,7 +29,6 @@ from pathlib import Path
 import numpy as np
 
 from explorer.evaluation import jsonable
-from explorer.evidence import with_swept_free_space
 from explorer.config import ExplorationConfig
 from explorer.contact import LOOP_SETTLING
 from explorer.coverage import coverage_ceiling, reach_breakdown
@@ -184,8 +183,9 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
                 and gpis.n_contacts >= 4):
             t0 = time.perf_counter()
             try:
-                err = surface_error(_reconstruction(gpis, loop)[0].mesh(resolution=48), rig.reference,
-                                    n_samples=5000, sharp_edges=np.zeros((0, 2, 3)))
+                field = loop.config.reconstruction_field(gpis, loop.records)[0]
+                err = surface_error(field.mesh(resolution=48), rig.reference, n_samples=5000,
+                                    sharp_edges=np.zeros((0, 2, 3)))
                 curve.append((n, err.position_rmse_mm, err.normal_rmse_deg))
             except ValueError:
                 pass
@@ -273,15 +273,6 @@ def _summed_counts(a: dict, b: dict) -> dict:
     return out
 
 
-def _reconstruction(gpis, loop) -> tuple:
-    """The field the run's reconstruction is meshed from, and the swept free-space rows it adds to
-    the loop's (``LoopConfig.swept_free_space``; :func:`explorer.evidence.with_swept_free_space`)."""
-    cfg = loop.config
-    if not cfg.swept_free_space:
-        return gpis, 0
-    return with_swept_free_space(gpis, loop.records, cfg.free_space_value, cfg.free_space_noise)
-
-
 def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_time_s, wall_s, eval_s,
             error, earlier=None, status=None) -> dict:
     """Write the mesh, metrics and figures; close the session. Ctrl-C here skips the remaining slow
@@ -311,7 +302,7 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
     contacts = np.array([r.position_m for r in records if r.kind == "contact"]).reshape(-1, 3)
     normals = np.array([r.normal for r in records if r.kind == "contact"]).reshape(-1, 3)
     try:
-        gpis, metrics["swept_free_space_rows"] = _reconstruction(gpis, loop)
+        gpis, metrics["swept_free_space_rows"] = loop.config.reconstruction_field(gpis, loop.records)
         mesh = write_mesh(gpis, settings.mesh_resolution, out_dir, metrics)
         if mesh is not None:
             recorder.reconstruction(mesh, gpis.n_contacts, recorder.latest_time_s)

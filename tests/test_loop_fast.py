@@ -141,13 +141,10 @@ def test_a_probe_through_a_guessed_surface_is_remembered_and_a_restore_keeps_it(
 
 
 
-def test_the_reconstruction_adds_the_swept_free_space_and_the_loops_field_does_not():
-    """Two recorded contacts near the sphere's +x face; the end of the second touch's approach line
-    lies where the field puts surface nearer than the pad allows (about -6 mm against the -9 mm
-    bound at its last point; a probe past a guessed surface). A restored loop's
-    field (the strategy's) has the contacts' rows only, whatever ``swept_free_space``; the
-    reconstruction's field adds rows for that line, equal to the evidence built directly."""
-    from explorer.evidence import SurfaceEvidence, with_swept_free_space
+def _a_probe_past_the_guessed_surface():
+    """Two recorded contacts near the sphere's +x face: head-on at the face, and one from above
+    whose approach line ends 4 mm inside the sphere's radius, where the field of the first alone
+    puts surface nearer than the pad allows."""
     from explorer.touch import TouchOutcome
 
     x = np.array([1.0, 0.0, 0.0])
@@ -156,6 +153,18 @@ def test_the_reconstruction_adds_the_swept_free_space_and_the_loops_field_does_n
     inside = RADIUS_M - 0.004
     second = TouchOutcome(1, "contact", np.array([inside, 0.0, 0.05]), np.array([0.0, 0.0, -1.0]),
                           position_m=np.array([inside, 0.0, 0.0]), normal=np.array([0.0, 0.0, 1.0]), strategy="scripted")
+    return first, second
+
+
+def test_the_reconstruction_adds_the_swept_free_space_and_the_loops_field_does_not():
+    """Two recorded contacts near the sphere's +x face; the end of the second touch's approach line
+    lies where the field puts surface nearer than the pad allows (about -6 mm against the -9 mm
+    bound at its last point; a probe past a guessed surface). A restored loop's
+    field (the strategy's) has the contacts' rows only, whatever ``swept_free_space``; the
+    reconstruction's field adds rows for that line, equal to the evidence built directly."""
+    from explorer.evidence import SurfaceEvidence, with_swept_free_space
+
+    first, second = _a_probe_past_the_guessed_surface()
     _, rig = sphere_rig(RADIUS_M)
     config = LoopConfig(touches=2)
     assert config.swept_free_space
@@ -175,6 +184,36 @@ def test_the_reconstruction_adds_the_swept_free_space_and_the_loops_field_does_n
     solid = fresh.gpis.mean(line) > config.free_space_value   # where the rows went
     assert solid.sum() == rows
     assert np.all(field.mean(line[solid]) < fresh.gpis.mean(line[solid]))   # pushed out along the probe
+
+
+def test_the_reconstruction_holds_the_swept_line_firmer_than_the_loops_free_space():
+    """The two contacts of the test above: the reconstruction's rows on the second touch's line
+    (``LoopConfig.reconstruction_field``) have ``reconstruction_free_space_noise``, firmer than
+    the loop's ``free_space_noise``, so they hold the field further out on that line than rows at
+    the loop's noise (the reconstruction of sessions recorded before, ``None``) on the same points.
+    Without ``swept_free_space`` the loop's field is meshed as it is."""
+    from dataclasses import replace
+
+    from explorer.evidence import with_swept_free_space
+    first, second = _a_probe_past_the_guessed_surface()
+    _, rig = sphere_rig(RADIUS_M)
+    config = LoopConfig(touches=2)
+    assert config.reconstruction_free_space_noise < config.free_space_noise
+    loop = ExplorationLoop(rig, FakePlanner(rig.positioner), ScriptedStrategy([]), GPIS(bounds=rig.prior.bounds()),
+                           config)
+    loop.restore([first, second])
+    firm, rows = config.reconstruction_field(loop.gpis, loop.records)
+    legacy_config = replace(config, reconstruction_free_space_noise=None)
+    legacy, legacy_rows = legacy_config.reconstruction_field(loop.gpis, loop.records)
+    assert rows == legacy_rows > 0   # the same gate, the same points
+    line = second.swept_points(-config.free_space_value)
+    solid = loop.gpis.mean(line) > config.free_space_value
+    assert np.all(firm.mean(line[solid]) < legacy.mean(line[solid]))
+    same, _ = with_swept_free_space(loop.gpis, loop.records, config.free_space_value, config.free_space_noise)
+    points = np.random.default_rng(1).uniform(*loop.gpis.bounds, size=(50, 3))
+    np.testing.assert_allclose(legacy.mean(points), same.mean(points), rtol=0, atol=1e-12)
+    off, off_rows = replace(config, swept_free_space=False).reconstruction_field(loop.gpis, loop.records)
+    assert off is loop.gpis and off_rows == 0
 
 
 def test_a_surface_at_the_very_end_of_the_line_is_still_pressed():

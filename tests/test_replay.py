@@ -5,6 +5,7 @@ import shutil
 import numpy as np
 import pytest
 
+from explorer.loop import LoopConfig
 from explorer.recording import read_contacts_csv
 from explorer.replay import ReplaySettings, SessionReplay, press_spans, replay
 from explorer.run import RunSettings, explore
@@ -141,7 +142,6 @@ def test_replay_with_the_recorded_settings_keeps_the_realign_repeats_the_loop_ke
     """A strict realign rule (every oblique contact doubtful, the whole budget for realigns) sets
     most first contacts aside; the repeats (strategy ``realign``) are kept by the loop whatever
     their angle, and replay applies the rule as the loop did."""
-    from explorer.loop import LoopConfig
 
     strict = LoopConfig(realign_angle_rad=float(np.radians(0.5)), max_realign_fraction=1.0,
                         doubt_rim_margin_m=1.0, doubt_approach_angle_rad=float(np.radians(0.5)))
@@ -272,3 +272,7 @@ def test_a_press_that_let_go_is_replayed_as_no_contact_and_no_side_press(sphere_
     del legacy["configuration"]["loop"]["swept_free_space"]
     (old / "metadata.json").write_text(json.dumps(legacy))
     assert not SessionReplay(old).loop_config.swept_free_space   # recorded before it existed
+    assert before.loop_config.reconstruction_free_space_noise == LoopConfig().reconstruction_free_space_noise
+    del legacy["configuration"]["loop"]["reconstruction_free_space_noise"]
+    (old / "metadata.json").write_text(json.dumps(legacy))
+    assert SessionReplay(old).loop_config.reconstruction_free_space_noise is None   # meshed as it was then
