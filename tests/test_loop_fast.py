@@ -5,6 +5,8 @@ repeat it along the measured normal: the point pad's contacts are all doubtful w
 the realign budget is the whole budget), one beside the sphere (a miss that sweeps free space)
 and one the planner cannot reach.
 """
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -90,6 +92,51 @@ def test_the_recording_holds_every_touch_and_the_contacts(finished):
     assert results == [r.kind for r in records]
     assert len(session.contacts) == len(contacts)
     assert len(session.readings) > 0 and len(session.joint_states) > 0
+
+
+class SwervingPlanner(FakePlanner):
+    """Plans the fake's straight line, but the joints (the fake's pad) drift sideways (+z) once
+    they are ``after_m`` along it, ``slope`` metres per metre: an arm pushed around the object."""
+
+    def __init__(self, positioner, after_m: float = 0.02, slope: float = 1.0):
+        super().__init__(positioner)
+        self.after_m, self.slope = after_m, slope
+
+    def plan(self, touch, seed_q=None, touched_m=None):
+        plan = super().plan(touch, seed_q, touched_m)
+        along = (plan.path_world_m - plan.path_world_m[0]) @ plan.approach_world
+        drift = self.slope * np.clip(along - self.after_m, 0.0, None)
+        return replace(plan, path_q=plan.path_world_m + drift[:, None] * np.array([0.0, 0.0, 1.0]))
+
+
+@pytest.mark.parametrize("tolerance_m", [0.005, None])
+def test_an_approach_pushed_off_its_line_stops_and_claims_only_the_line_it_followed(tmp_path, tolerance_m):
+    """A miss beside the sphere whose pad leaves the planned line 20 mm after the standoff. With
+    ``line_tolerance_m`` the approach stops within a control tick of the pad being that far off (a
+    ``left_line`` event), and its free space ends the pad's half width before where it left;
+    without (the loop before), the whole line is recorded as free although the pad never followed
+    it past 20 mm."""
+    _, rig = sphere_rig(RADIUS_M)
+    planner = SwervingPlanner(rig.positioner)
+    touch = Touch(np.array([0.0, 1.25 * RADIUS_M, 0.0]), np.array([-1.0, 0.0, 0.0]), strategy="scripted")
+    recorder = RunRecorder(tmp_path, dict(rig.description, seed=0, configuration={}))
+    config = LoopConfig(touches=1, proposal_rounds=1, line_tolerance_m=tolerance_m)
+    loop = ExplorationLoop(rig, planner, ScriptedStrategy([touch]), GPIS(bounds=rig.prior.bounds()), config, recorder)
+    [record] = loop.run()
+    recorder.close()
+    assert record.kind == "miss"
+    plan = planner.plan(touch)
+    line_along = (record.free_space_m - touch.target_m) @ touch.approach_dir
+    full = (plan.path_world_m[-1] - plan.target_world_m) @ plan.approach_world
+    left = [e.fields for e in read_session(tmp_path / "session").events if e.kind == "left_line"]
+    if tolerance_m is None:
+        assert not left and line_along.max() == pytest.approx(full, abs=1e-9)
+        return
+    assert len(left) == 1 and tolerance_m < left[0]["lateral_m"] < tolerance_m + 0.001
+    standoff_along = (plan.path_world_m[0] - plan.target_world_m) @ plan.approach_world
+    departure_along = standoff_along + planner.after_m + tolerance_m / planner.slope
+    assert line_along.max() <= departure_along + config.free_space_value + 1e-9
+    assert line_along.max() < full - 0.01
 
 
 def test_a_restored_loop_has_the_field_of_the_finished_one(finished):
@@ -192,9 +239,8 @@ def test_the_reconstruction_holds_the_swept_line_firmer_than_the_loops_free_spac
     the loop's ``free_space_noise``, so they hold the field further out on that line than rows at
     the loop's noise (the reconstruction of sessions recorded before, ``None``) on the same points.
     Without ``swept_free_space`` the loop's field is meshed as it is."""
-    from dataclasses import replace
-
     from explorer.evidence import with_swept_free_space
+
     first, second = _a_probe_past_the_guessed_surface()
     _, rig = sphere_rig(RADIUS_M)
     config = LoopConfig(touches=2)
@@ -220,8 +266,6 @@ def test_a_surface_at_the_very_end_of_the_line_is_still_pressed():
     """The sphere lies 0.4 mm before the end of the touch's depth: the press needs the planner's
     reserve beyond it. Without one (as before the reserve) the pad stops short of the press force
     (on the simulated arm, a press the side-press rule then rejects)."""
-    from dataclasses import replace
-
     from explorer.planner import PlannerConfig
 
     at_end = Touch(np.array([0.0, 0.0, RADIUS_M + 0.0196]), np.array([0.0, 0.0, -1.0]), strategy="scripted",
