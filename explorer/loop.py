@@ -162,13 +162,16 @@ class LoopConfig:
         "Firmer free space in the reconstruction"). None: ``free_space_noise`` (runs before
         2026-11-27).
     line_tolerance_m : float or None
-        The approach stops when the pad (forward kinematics of the encoders) is this far off its
-        planned line, and the touch is a miss whose free space ends ``-free_space_value`` before
-        that point, as for an approach held back. Another link or the pad's side met the object and
-        the arm, still driven along its joint path, was pushing the pad around it: in the 64 split
-        runs before, 36 of 147 misses left their line by 3-114 mm while the whole line was
-        recorded as free (two through a tool's handle). None: no such stop (the loop before
-        2026-11-27).
+        A miss's free space ends ``-free_space_value`` before the point where the pad (forward
+        kinematics of the encoders) first was this far off its planned line, as for an approach
+        held back: another link or the pad's side had met the object and the arm, still driven
+        along its joint path, pushed the pad around it. In the 64 split runs before, 36 of 147
+        misses left their line by 3-114 mm while the whole line was recorded as free (two through a
+        tool's handle). None: the whole line (the loop before 2026-11-27).
+    stop_off_line : bool
+        Also stop the approach there (a miss). Off: the approaches that go on mostly end in good
+        contacts, and stopping them lost more than it saved (BENCHMARKS.md, "Approaches pushed off
+        their line").
     drop_released_presses : bool
         A press whose settled force lies below the contact detector's end threshold had let go
         before the orientation settled (:class:`explorer.contact.PressReleased`): ``no_normal``,
@@ -215,6 +218,7 @@ class LoopConfig:
     swept_free_space: bool = True
     reconstruction_free_space_noise: float | None = 0.002
     line_tolerance_m: float | None = 0.005
+    stop_off_line: bool = False
     loose_settle_deviation_rad: float | None = float(np.radians(1.5))
 
     def loose_settling(self, settling: SettlingConfig) -> SettlingConfig | None:
@@ -321,7 +325,7 @@ class ExplorationLoop:
         self._contact_readings: list[Reading] = []
         self._baseline_pa: float | None = None
         self._press_start_s = -np.inf
-        self._left_line_m: float | None = None  # how far the pad was off its line when the approach stopped
+        self._left_line_along_m: float | None = None  # where along its line the pad first left it
         self._follow_up: Touch | None = None
         #: Joint positions (dof,) the free moves reached since the arm was last at rest (or since the
         #: run began), in order; the last is where the arm stands between touches. Retraced when
@@ -445,12 +449,12 @@ class ExplorationLoop:
         self._press_start_s = press_start
         self._contact_readings = []
         speed = self._joint_speed(plan)
-        self._left_line_m = None
+        self._left_line_along_m = None
         approach = self.robot.guarded_move(plan.path_q[1:], stop=lambda: self._approach_stopped(plan),
                                            speed_rad_s=speed)
         record = TouchOutcome(index, "miss", plan.touch.target_m, plan.touch.approach_dir,
                              plan.stand.yaw_rad, plan.stand.tilt_rad, t_s=self.robot.time_s())
-        if approach.stopped and self._left_line_m is None:
+        if approach.stopped and not (self.config.stop_off_line and self._left_line_along_m is not None):
             start_pad = self.kin.pose_of_one(self.robot.joint_positions())[0]
             remaining = plan.path_q[min(approach.waypoint_index + 1, len(plan.path_q) - 1):]
             press_speed = speed * cfg.press_speed_mps / cfg.approach_speed_mps
@@ -627,15 +631,17 @@ class ExplorationLoop:
     def _swept(self, plan: ApproachPlan, q_end: np.ndarray) -> np.ndarray:
         """(k, 3) world points of the approach line the pad passed on a miss.
 
-        The whole line when the pad got to its end; otherwise (another link met the object and
-        held the arm back, or pushed the pad off the line: ``line_tolerance_m``, so the pad never
-        pressed) only the points at least ``-free_space_value`` (the pad's half width) behind where
-        it stopped: the surface may be just beyond it.
+        The whole line when the pad got to its end on it; otherwise (another link met the object
+        and held the arm back, or pushed the pad off the line: ``line_tolerance_m``) only the points
+        at least ``-free_space_value`` (the pad's half width) behind where it stopped or first left
+        the line: the surface may be just beyond it.
         """
         line = plan.path_world_m
         along = (line - line[0]) @ plan.approach_world
         reached = float((self.kin.forward_kinematics(q_end).position_m - line[0]) @ plan.approach_world)
-        if reached >= along[-1] - 0.002 and self._left_line_m is None:
+        if self._left_line_along_m is not None:
+            reached = min(reached, self._left_line_along_m)
+        elif reached >= along[-1] - 0.002:
             return line
         return line[along <= reached + self.config.free_space_value]
 
@@ -724,21 +730,23 @@ class ExplorationLoop:
         return readings
 
     def _approach_stopped(self, plan: ApproachPlan) -> bool:
-        """The approach's stop test, every control tick: a contact started, or (``line_tolerance_m``)
-        the pad is off the planned line (sets ``_left_line_m``; a ``left_line`` event)."""
+        """The approach's stop test, every control tick: a contact started, or (``stop_off_line``)
+        the pad left its planned line. The first tick the pad is more than ``line_tolerance_m`` off
+        the line sets ``_left_line_along_m`` and logs a ``left_line`` event."""
         if self._contact_started():
             return True
         tolerance = self.config.line_tolerance_m
-        if tolerance is None:
-            return False
+        if tolerance is None or self._left_line_along_m is not None:
+            return self._left_line_along_m is not None and self.config.stop_off_line
         pad = self.kin.pose_of_one(self.robot.joint_positions())[0]  # numpy FK: runs every control tick
         offset = pad - plan.path_world_m[0]
-        lateral = float(np.linalg.norm(offset - (offset @ plan.approach_world) * plan.approach_world))
+        along = float(offset @ plan.approach_world)
+        lateral = float(np.linalg.norm(offset - along * plan.approach_world))
         if lateral <= tolerance:
             return False
-        self._left_line_m = lateral
+        self._left_line_along_m = along
         self.recorder.event("left_line", self.robot.time_s(), lateral_m=lateral)
-        return True
+        return self.config.stop_off_line
 
     def _contact_started(self) -> bool:
         """Feed every new reading to the detector; keep the readings from the confirmed start on."""

@@ -109,18 +109,18 @@ class SwervingPlanner(FakePlanner):
         return replace(plan, path_q=plan.path_world_m + drift[:, None] * np.array([0.0, 0.0, 1.0]))
 
 
-@pytest.mark.parametrize("tolerance_m", [0.005, None])
-def test_an_approach_pushed_off_its_line_stops_and_claims_only_the_line_it_followed(tmp_path, tolerance_m):
+@pytest.mark.parametrize("tolerance_m, stop", [(0.005, False), (0.005, True), (None, False)])
+def test_a_miss_pushed_off_its_line_claims_only_the_line_it_followed(tmp_path, tolerance_m, stop):
     """A miss beside the sphere whose pad leaves the planned line 20 mm after the standoff. With
-    ``line_tolerance_m`` the approach stops within a control tick of the pad being that far off (a
-    ``left_line`` event), and its free space ends the pad's half width before where it left;
-    without (the loop before), the whole line is recorded as free although the pad never followed
-    it past 20 mm."""
+    ``line_tolerance_m`` the tick it is that far off is logged (``left_line``) and the miss's free
+    space ends the pad's half width before that point, whether the approach goes on to its end or
+    (``stop_off_line``) stops there; without (the loop before), the whole line is recorded as free
+    although the pad never followed it past 20 mm."""
     _, rig = sphere_rig(RADIUS_M)
     planner = SwervingPlanner(rig.positioner)
     touch = Touch(np.array([0.0, 1.25 * RADIUS_M, 0.0]), np.array([-1.0, 0.0, 0.0]), strategy="scripted")
     recorder = RunRecorder(tmp_path, dict(rig.description, seed=0, configuration={}))
-    config = LoopConfig(touches=1, proposal_rounds=1, line_tolerance_m=tolerance_m)
+    config = LoopConfig(touches=1, proposal_rounds=1, line_tolerance_m=tolerance_m, stop_off_line=stop)
     loop = ExplorationLoop(rig, planner, ScriptedStrategy([touch]), GPIS(bounds=rig.prior.bounds()), config, recorder)
     [record] = loop.run()
     recorder.close()
@@ -128,15 +128,16 @@ def test_an_approach_pushed_off_its_line_stops_and_claims_only_the_line_it_follo
     plan = planner.plan(touch)
     line_along = (record.free_space_m - touch.target_m) @ touch.approach_dir
     full = (plan.path_world_m[-1] - plan.target_world_m) @ plan.approach_world
-    left = [e.fields for e in read_session(tmp_path / "session").events if e.kind == "left_line"]
+    left = [e for e in read_session(tmp_path / "session").events if e.kind == "left_line"]
     if tolerance_m is None:
         assert not left and line_along.max() == pytest.approx(full, abs=1e-9)
         return
-    assert len(left) == 1 and tolerance_m < left[0]["lateral_m"] < tolerance_m + 0.001
+    assert len(left) == 1 and tolerance_m < left[0].fields["lateral_m"] < tolerance_m + 0.001
     standoff_along = (plan.path_world_m[0] - plan.target_world_m) @ plan.approach_world
     departure_along = standoff_along + planner.after_m + tolerance_m / planner.slope
     assert line_along.max() <= departure_along + config.free_space_value + 1e-9
     assert line_along.max() < full - 0.01
+    assert (left[0].t_s < record.press_t_s[1] - 0.5) != stop   # stopped at once, or went on along its path
 
 
 def test_a_restored_loop_has_the_field_of_the_finished_one(finished):
