@@ -158,9 +158,9 @@ class LoopConfig:
         Standard deviation of those rows: firmer than the loop's ``free_space_noise`` (a miss's rows),
         since a row is only added where the final field still puts surface inside the line the pad
         passed. Chosen on the tuning split; the misses' points were left out after the held-out
-        split showed a miss whose pad had slid past a tool's handle on its side (BENCHMARKS.md,
-        "Firmer free space in the reconstruction"). None: ``free_space_noise`` (runs before
-        2026-11-27).
+        split showed misses whose pad had been dragged around a tool's handle, off their line
+        (``line_tolerance_m``; BENCHMARKS.md, "Firmer free space in the reconstruction"). None:
+        ``free_space_noise`` (runs before 2026-11-27).
     line_tolerance_m : float or None
         A miss's free space ends ``-free_space_value`` before the point where the pad (forward
         kinematics of the encoders) first was this far off its planned line, as for an approach
@@ -169,9 +169,9 @@ class LoopConfig:
         misses left their line by 3-114 mm while the whole line was recorded as free (two through a
         tool's handle). None: the whole line (the loop before 2026-11-27).
     stop_off_line : bool
-        Also stop the approach there (a miss). Off: the approaches that go on mostly end in good
-        contacts, and stopping them lost more than it saved (BENCHMARKS.md, "Approaches pushed off
-        their line").
+        Also stop the approach there (a miss). Off: most approaches that go on end in good
+        contacts; stopping them made the contacts more accurate but the tuning split's
+        reconstructions worse (BENCHMARKS.md, "Approaches pushed off their line").
     drop_released_presses : bool
         A press whose settled force lies below the contact detector's end threshold had let go
         before the orientation settled (:class:`explorer.contact.PressReleased`): ``no_normal``,
