@@ -637,8 +637,8 @@ class ExplorationLoop:
         the line: the surface may be just beyond it.
         """
         line = plan.path_world_m
-        along = (line - line[0]) @ plan.approach_world
-        reached = float((self.kin.forward_kinematics(q_end).position_m - line[0]) @ plan.approach_world)
+        along = plan.along_line(line)
+        reached = float(plan.along_line(self.kin.forward_kinematics(q_end).position_m))
         if self._left_line_along_m is not None:
             reached = min(reached, self._left_line_along_m)
         elif reached >= along[-1] - 0.002:
@@ -666,9 +666,8 @@ class ExplorationLoop:
         """Index of the last waypoint of ``plan.path_q`` the pad has gone past along the approach
         line (0: still at or behind the standoff); going back from there never pushes it deeper."""
         pad = self.kin.pose_of_one(self.robot.joint_positions())[0]
-        along = (plan.path_world_m - plan.path_world_m[0]) @ plan.approach_world
-        reached = float((pad - plan.path_world_m[0]) @ plan.approach_world)
-        return max(int(np.searchsorted(along, reached + 1e-9, side="right")) - 1, 0)
+        reached = float(plan.along_line(pad))
+        return max(int(np.searchsorted(plan.along_line(plan.path_world_m), reached + 1e-9, side="right")) - 1, 0)
 
     def _contact_record(self, record: TouchOutcome) -> TouchOutcome:
         record.baseline_pa = self._baseline_pa
@@ -736,15 +735,13 @@ class ExplorationLoop:
         if self._contact_started():
             return True
         tolerance = self.config.line_tolerance_m
-        if tolerance is None or self._left_line_along_m is not None:
-            return self._left_line_along_m is not None and self.config.stop_off_line
+        if tolerance is None or self._left_line_along_m is not None:  # off, or already logged
+            return False
         pad = self.kin.pose_of_one(self.robot.joint_positions())[0]  # numpy FK: runs every control tick
-        offset = pad - plan.path_world_m[0]
-        along = float(offset @ plan.approach_world)
-        lateral = float(np.linalg.norm(offset - along * plan.approach_world))
+        lateral = plan.off_line_m(pad)
         if lateral <= tolerance:
             return False
-        self._left_line_along_m = along
+        self._left_line_along_m = float(plan.along_line(pad))
         self.recorder.event("left_line", self.robot.time_s(), lateral_m=lateral)
         return self.config.stop_off_line
 

@@ -146,6 +146,16 @@ class ApproachPlan:
     def standoff_q(self) -> np.ndarray:
         return self.path_q[0]
 
+    def along_line(self, points_world_m: np.ndarray) -> np.ndarray:
+        """How far ``points_world_m`` ((3,) or (k, 3), world) lie along the approach line from the
+        standoff, metres: () or (k,)."""
+        return (np.asarray(points_world_m, float) - self.path_world_m[0]) @ self.approach_world
+
+    def off_line_m(self, point_world_m: np.ndarray) -> float:
+        """Distance of a (3,) world point from the approach line, metres."""
+        offset = np.asarray(point_world_m, float) - self.path_world_m[0]
+        return float(np.linalg.norm(offset - (offset @ self.approach_world) * self.approach_world))
+
 
 def approach_line(target_m: np.ndarray, approach_dir: np.ndarray, config: PlannerConfig,
                   depth_m: float | None = None) -> np.ndarray:
