@@ -325,7 +325,7 @@ class ExplorationLoop:
         self._contact_readings: list[Reading] = []
         self._baseline_pa: float | None = None
         self._press_start_s = -np.inf
-        self._left_line_along_m: float | None = None  # where along its line the pad first left it
+        self._left_line_pad_m: np.ndarray | None = None  # (3,) world: where the pad first left its line
         self._follow_up: Touch | None = None
         #: Joint positions (dof,) the free moves reached since the arm was last at rest (or since the
         #: run began), in order; the last is where the arm stands between touches. Retraced when
@@ -449,12 +449,14 @@ class ExplorationLoop:
         self._press_start_s = press_start
         self._contact_readings = []
         speed = self._joint_speed(plan)
-        self._left_line_along_m = None
+        self._left_line_pad_m = None
         approach = self.robot.guarded_move(plan.path_q[1:], stop=lambda: self._approach_stopped(plan),
                                            speed_rad_s=speed)
         record = TouchOutcome(index, "miss", plan.touch.target_m, plan.touch.approach_dir,
                              plan.stand.yaw_rad, plan.stand.tilt_rad, t_s=self.robot.time_s())
-        if approach.stopped and not (self.config.stop_off_line and self._left_line_along_m is not None):
+        if self._left_line_pad_m is not None:
+            record.left_line_m = self.positioner.to_object(self._left_line_pad_m[None])[0]
+        if approach.stopped and not (self.config.stop_off_line and self._left_line_pad_m is not None):
             start_pad = self.kin.pose_of_one(self.robot.joint_positions())[0]
             remaining = plan.path_q[min(approach.waypoint_index + 1, len(plan.path_q) - 1):]
             press_speed = speed * cfg.press_speed_mps / cfg.approach_speed_mps
@@ -639,8 +641,8 @@ class ExplorationLoop:
         line = plan.path_world_m
         along = plan.along_line(line)
         reached = float(plan.along_line(self.kin.forward_kinematics(q_end).position_m))
-        if self._left_line_along_m is not None:
-            reached = min(reached, self._left_line_along_m)
+        if self._left_line_pad_m is not None:
+            reached = min(reached, float(plan.along_line(self._left_line_pad_m)))
         elif reached >= along[-1] - 0.002:
             return line
         return line[along <= reached + self.config.free_space_value]
@@ -731,17 +733,17 @@ class ExplorationLoop:
     def _approach_stopped(self, plan: ApproachPlan) -> bool:
         """The approach's stop test, every control tick: a contact started, or (``stop_off_line``)
         the pad left its planned line. The first tick the pad is more than ``line_tolerance_m`` off
-        the line sets ``_left_line_along_m`` and logs a ``left_line`` event."""
+        the line sets ``_left_line_pad_m`` and logs a ``left_line`` event."""
         if self._contact_started():
             return True
         tolerance = self.config.line_tolerance_m
-        if tolerance is None or self._left_line_along_m is not None:  # off, or already logged
+        if tolerance is None or self._left_line_pad_m is not None:  # off, or already logged
             return False
         pad = self.kin.pose_of_one(self.robot.joint_positions())[0]  # numpy FK: runs every control tick
         lateral = plan.off_line_m(pad)
         if lateral <= tolerance:
             return False
-        self._left_line_along_m = float(plan.along_line(pad))
+        self._left_line_pad_m = np.array(pad, float)
         self.recorder.event("left_line", self.robot.time_s(), lateral_m=lateral)
         return self.config.stop_off_line
 

@@ -90,6 +90,8 @@ class RunRecorder(Recorder):
             fields["free_space_m"] = np.asarray(record.free_space_m).tolist()
         if record.side_m is not None:
             fields["side_m"] = np.asarray(record.side_m).tolist()
+        if record.left_line_m is not None:
+            fields["left_line_m"] = np.asarray(record.left_line_m).tolist()
         self.session.write_event(kind, record.t_s + self.time_offset_s, **fields)
         self._saw(record.t_s)
         if record.kind == "contact":

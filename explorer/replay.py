@@ -221,10 +221,12 @@ def _touch_from_event(event) -> TouchOutcome:
     """A touch event as a not-yet-detected outcome (kind ``miss`` until a contact is found)."""
     f = event.fields
     free_space = f.get("free_space_m") if f.get("result") == "miss" else None
+    left_line = f.get("left_line_m")
     return TouchOutcome(int(f.get("index", -1)), "miss", np.asarray(f["target_m"], float),
                         np.asarray(f["approach_dir"], float), float(f.get("stand_yaw_rad", 0.0)),
                         float(f.get("stand_tilt_rad", 0.0)), strategy=str(f.get("strategy", "")),
-                        free_space_m=None if free_space is None else np.asarray(free_space, float).reshape(-1, 3))
+                        free_space_m=None if free_space is None else np.asarray(free_space, float).reshape(-1, 3),
+                        left_line_m=None if left_line is None else np.asarray(left_line, float))
 
 
 def recorded_pad(configuration: dict) -> PadCalibration:
@@ -555,6 +557,8 @@ class SessionReplay:
             touches=len(touches), contacts=kinds.count("contact"), misses=kinds.count("miss"),
             realign=kinds.count("realign"), no_normal=kinds.count("no_normal"),
             doubtful=sum(bool(getattr(t.quality, "doubtful", False)) for t in touches if t.kind == "contact"),
+            left_line=sum(t.left_line_m is not None for t in touches),
+            contacts_after_left_line=sum(t.left_line_m is not None for t in touches if t.kind == "contact"),
             same_press=kinds.count("same_press"), not_modelled=kinds.count("not_modelled"),
             recorded_contacts=recorded.count("contact"), n_contacts_fitted=gpis.n_contacts,
             notes=list(notes),

@@ -106,6 +106,7 @@ def _touch_record(event, contacts_by_time) -> TouchOutcome:
     free_space = vector("free_space_m")
     record.free_space_m = None if free_space is None else free_space.reshape(-1, 3)
     record.side_m = vector("side_m")
+    record.left_line_m = vector("left_line_m")
     if record.kind == "contact":
         record.contact = contacts_by_time.get(event.t_s)
     if isinstance(f.get("quality"), dict):

@@ -291,6 +291,8 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
         blocked_moves=loop.blocked_moves_summary(),
         doubtful=sum(bool(getattr(r.quality, "doubtful", False)) for r in records if r.kind == "contact"),
         repressed=sum(r.repress_t_s is not None for r in records),
+        left_line=sum(r.left_line_m is not None for r in records),
+        contacts_after_left_line=sum(r.left_line_m is not None for r in records if r.kind == "contact"),
         wall_time_s=wall_s, simulated_time_s=robot_time_s,
         phase_times_s=loop.times.as_dict(), evaluation_time_s=eval_s,
         completed=error is None, machine=f"{platform.machine()}, python {platform.python_version()}",

@@ -123,6 +123,11 @@ class TouchOutcome:
     side_m : (3,) float or None
         A press on the pad's side (kind ``no_normal``): the pad-face centre at its end, object
         frame, metres. The surface met lies within about the pad's half diagonal of it.
+    left_line_m : (3,) float or None
+        The pad-face centre, object frame, metres, the first control tick the pad was more than
+        ``LoopConfig.line_tolerance_m`` off its planned approach line (another link met the object
+        and the arm dragged the pad on); None: it kept to the line, or the check was off. Checked
+        until the contact started, so a contact with it was made after the push.
     """
 
     index: int
@@ -142,6 +147,7 @@ class TouchOutcome:
     quality: object | None = None
     repress_t_s: float | None = None
     side_m: np.ndarray | None = None
+    left_line_m: np.ndarray | None = None
 
     def passed_points(self, margin_m: float, spacing_m: float = 0.01) -> np.ndarray:
         """(k, 3) points of the approach line from the target on that the pad went through before it

@@ -12,6 +12,7 @@ import pytest
 
 from explorer.loop import ExplorationLoop, LoopConfig
 from explorer.recording import RunRecorder, read_contacts_csv
+from explorer.resume import load_recorded_run
 from explorer.session import read_session
 from explorer.touch import Touch
 from fakes import FakePlanner, ScriptedStrategy, sphere_rig
@@ -115,7 +116,8 @@ def test_a_miss_pushed_off_its_line_claims_only_the_line_it_followed(tmp_path, t
     ``line_tolerance_m`` the tick it is that far off is logged (``left_line``) and the miss's free
     space ends the pad's half width before that point, whether the approach goes on to its end or
     (``stop_off_line``) stops there; without (the loop before), the whole line is recorded as free
-    although the pad never followed it past 20 mm."""
+    although the pad never followed it past 20 mm. The touch records where the pad left its line
+    (``left_line_m``, object frame), and resume reads it back."""
     _, rig = sphere_rig(RADIUS_M)
     planner = SwervingPlanner(rig.positioner)
     touch = Touch(np.array([0.0, 1.25 * RADIUS_M, 0.0]), np.array([-1.0, 0.0, 0.0]), strategy="scripted")
@@ -129,10 +131,16 @@ def test_a_miss_pushed_off_its_line_claims_only_the_line_it_followed(tmp_path, t
     line_along = (record.free_space_m - touch.target_m) @ touch.approach_dir
     full = (plan.path_world_m[-1] - plan.target_world_m) @ plan.approach_world
     left = [e for e in read_session(tmp_path / "session").events if e.kind == "left_line"]
+    [restored] = load_recorded_run(tmp_path).touches
     if tolerance_m is None:
         assert not left and line_along.max() == pytest.approx(full, abs=1e-9)
+        assert record.left_line_m is None and restored.left_line_m is None
         return
     assert len(left) == 1 and tolerance_m < left[0].fields["lateral_m"] < tolerance_m + 0.001
+    offset = record.left_line_m - touch.target_m
+    lateral = np.linalg.norm(offset - (offset @ touch.approach_dir) * touch.approach_dir)
+    assert lateral == pytest.approx(left[0].fields["lateral_m"], abs=1e-9)
+    np.testing.assert_array_equal(restored.left_line_m, record.left_line_m)
     standoff_along = (plan.path_world_m[0] - plan.target_world_m) @ plan.approach_world
     departure_along = standoff_along + planner.after_m + tolerance_m / planner.slope
     assert line_along.max() <= departure_along + config.free_space_value + 1e-9

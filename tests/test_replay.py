@@ -276,3 +276,23 @@ def test_a_press_that_let_go_is_replayed_as_no_contact_and_no_side_press(sphere_
     del legacy["configuration"]["loop"]["reconstruction_free_space_noise"]
     (old / "metadata.json").write_text(json.dumps(legacy))
     assert SessionReplay(old).loop_config.reconstruction_free_space_noise is None   # meshed as it was then
+
+
+def test_a_touch_recorded_as_pushed_off_its_line_is_counted_as_such(sphere_run, recorded_replay, tmp_path):
+    """A touch event's ``left_line_m`` (the pad left its approach line before the contact) is read
+    back onto the replayed touch and counted in the metrics; the recorded run had none."""
+    assert recorded_replay.metrics["left_line"] == recorded_replay.metrics["contacts_after_left_line"] == 0
+    assert sphere_run.metrics["left_line"] == 0
+    copy = tmp_path / "session"
+    shutil.copytree(sphere_run.out_dir / "session", copy)
+    lines = (copy / "events.jsonl").read_text().splitlines()
+    first = next(i for i, line in enumerate(lines) if json.loads(line).get("result") == "contact")
+    event = json.loads(lines[first])
+    event["left_line_m"] = [0.01, 0.02, 0.03]
+    lines[first] = json.dumps(event)
+    (copy / "events.jsonl").write_text("\n".join(lines) + "\n")
+    result = SessionReplay(copy).run(ReplaySettings(figures=False))
+    [pushed] = [t for t in result.touches if t.left_line_m is not None]
+    assert pushed.index == event["index"] and pushed.kind == "contact"
+    np.testing.assert_array_equal(pushed.left_line_m, [0.01, 0.02, 0.03])
+    assert result.metrics["left_line"] == result.metrics["contacts_after_left_line"] == 1
