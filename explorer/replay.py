@@ -57,7 +57,7 @@ from explorer.planner import PlannerConfig, approach_line
 from explorer.recording import CONTACTS_HEADER, contacts_csv_row
 from explorer.session import SessionReader
 from explorer.session.checks import require_replay_files, usable_readings
-from explorer.touch import ObjectPrior, TouchOutcome
+from explorer.touch import ObjectPrior, TouchOutcome, left_line_counts
 from reconstruction.gpis import GPIS, KERNEL_NAMES
 from sensor.contact_detection import PressureContactDetector, PressureDetectorConfig
 from sensor.normal_estimation import SettlingConfig
@@ -557,8 +557,7 @@ class SessionReplay:
             touches=len(touches), contacts=kinds.count("contact"), misses=kinds.count("miss"),
             realign=kinds.count("realign"), no_normal=kinds.count("no_normal"),
             doubtful=sum(bool(getattr(t.quality, "doubtful", False)) for t in touches if t.kind == "contact"),
-            left_line=sum(t.left_line_m is not None for t in touches),
-            contacts_after_left_line=sum(t.left_line_m is not None for t in touches if t.kind == "contact"),
+            **left_line_counts(touches),
             same_press=kinds.count("same_press"), not_modelled=kinds.count("not_modelled"),
             recorded_contacts=recorded.count("contact"), n_contacts_fitted=gpis.n_contacts,
             notes=list(notes),

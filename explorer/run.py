@@ -41,7 +41,7 @@ from explorer.resume import check_resumable, load_recorded_run, resume_time_offs
 from explorer.rig import Rig, object_prior
 from explorer.simulation import build_scene
 from explorer.strategies import make_strategy
-from explorer.touch import TouchOutcome
+from explorer.touch import TouchOutcome, left_line_counts
 from reconstruction.gpis import GPIS
 from reconstruction.metrics import surface_error
 from sensor.contact_detection import PressureDetectorConfig
@@ -291,8 +291,7 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
         blocked_moves=loop.blocked_moves_summary(),
         doubtful=sum(bool(getattr(r.quality, "doubtful", False)) for r in records if r.kind == "contact"),
         repressed=sum(r.repress_t_s is not None for r in records),
-        left_line=sum(r.left_line_m is not None for r in records),
-        contacts_after_left_line=sum(r.left_line_m is not None for r in records if r.kind == "contact"),
+        **left_line_counts(records),
         wall_time_s=wall_s, simulated_time_s=robot_time_s,
         phase_times_s=loop.times.as_dict(), evaluation_time_s=eval_s,
         completed=error is None, machine=f"{platform.machine()}, python {platform.python_version()}",

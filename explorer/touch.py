@@ -167,3 +167,11 @@ class TouchOutcome:
         reached = float((np.asarray(end_m) - self.target_m) @ self.approach_dir)
         along = np.arange(0.0, reached - margin_m + 1e-12, spacing_m)
         return self.target_m + along[:, None] * self.approach_dir
+
+
+def left_line_counts(records) -> dict:
+    """``metrics.json``'s counts (run and replay alike) of the touches whose pad left its line
+    (``left_line``: ``TouchOutcome.left_line_m`` set) and of the contacts among them
+    (``contacts_after_left_line``)."""
+    pushed = [r for r in records if r.left_line_m is not None]
+    return dict(left_line=len(pushed), contacts_after_left_line=sum(r.kind == "contact" for r in pushed))
