@@ -13,6 +13,13 @@ The offsets ``o`` (encoder reading minus true angle) solve the nonlinear least s
 offset and poses that turn every joint, or some combinations stay unobservable (the ridge then
 keeps them at zero; ``FitResult.singular_values`` shows it).
 
+With each touch's force ``f_i`` (the pad's pressure, :attr:`SphereTouches.force_n`) the pad's
+compression on the ball is fitted too: the pad face sinks ``k f_i`` into the ball along the measured
+normal ``n_i`` (outward, minus the pad's face axis), so the touched surface point is
+``p_i(o) + k f_i n_i``. The presses of a physical calibration end at 0.1-3 N; unmodelled, the
+1.5-3 mm per newton a soft pad sinks into a 5 cm ball reads as millimetres of arm error, and the
+offsets bend to explain it (BENCHMARKS.md, issue 12).
+
 With ``link_lengths`` the arm's link lengths are fitted too: the pad point becomes
 ``p_i(o, d) = FK_pivot(q_i - o) + R_i a + sum_j R_parent_j(q_i - o) u_j d_j``
 (:mod:`robots.link_lengths`, exact), ``d`` with its own ridge. ``FitResult.parameter_std`` says how
@@ -42,12 +49,17 @@ class SphereTouches:
         The sphere's centre, or each touch's sphere centre (several balls, or one ball moved
         between known places: more diverse poses).
     radius_m : float
+    force_n : (n,) float, optional
+        Each touch's settled contact force from the pad's pressure, newtons (a drifting baseline
+        may read a light press slightly below zero). Given, the fit also estimates the pad's
+        compression per newton (module docstring).
     """
 
     q_rad: np.ndarray
     body_quat_wxyz: np.ndarray
     centre_m: np.ndarray
     radius_m: float
+    force_n: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         q = np.asarray(self.q_rad, float)
@@ -56,6 +68,12 @@ class SphereTouches:
             raise ValueError(f"q_rad must be (n, dof) and body_quat_wxyz (n, 4), got {q.shape}, {quats.shape}")
         if np.asarray(self.centre_m).shape not in ((3,), (len(q), 3)) or not self.radius_m > 0.0:
             raise ValueError("centre_m must be 3 numbers (or one row per touch) and radius_m > 0")
+        if self.force_n is not None:
+            force = np.asarray(self.force_n, float)
+            if force.shape != (len(q),) or not np.all(np.isfinite(force)):
+                raise ValueError(f"force_n must be {len(q)} finite forces in newtons (one per touch), "
+                                 f"got shape {force.shape}")
+            object.__setattr__(self, "force_n", force)
         object.__setattr__(self, "q_rad", q)
         object.__setattr__(self, "body_quat_wxyz", quats)
         object.__setattr__(self, "centre_m", np.asarray(self.centre_m, float))
@@ -63,7 +81,16 @@ class SphereTouches:
     def subset(self, which) -> "SphereTouches":
         """The touches selected by ``which`` (a boolean mask or indices over the n touches)."""
         centres = self.centre_m if self.centre_m.ndim == 1 else self.centre_m[which]
-        return SphereTouches(self.q_rad[which], self.body_quat_wxyz[which], centres, self.radius_m)
+        force = None if self.force_n is None else self.force_n[which]
+        return SphereTouches(self.q_rad[which], self.body_quat_wxyz[which], centres, self.radius_m, force)
+
+    def compression_directions(self) -> np.ndarray:
+        """(n, 3) each touch's force times its measured outward normal (minus the pad's face axis,
+        world frame), newtons: times the compliance (m/N), where the touched surface is from the pad face."""
+        from common.rotations import quat_to_matrix
+
+        force = np.zeros(len(self.q_rad)) if self.force_n is None else self.force_n
+        return -force[:, None] * quat_to_matrix(self.body_quat_wxyz)[:, :, 2]
 
 
 @dataclass(frozen=True)
@@ -81,10 +108,12 @@ class FitResult:
         lengths): a near-zero one marks a combination these touches cannot see.
     link_length_error_m : dict of str -> float
         Fitted link-length errors (true minus nominal, metres) by joint name; empty when not fitted.
-    parameter_std : (dof [+ k],) float
-        Standard error of each fitted parameter (radians, then metres): the after-fit residual RMS
-        through ``(J^T J + ridge)^-1``. A value as large as the parameters' spread means the
-        touches do not determine it.
+    parameter_std : (dof [+ k] [+ 1],) float
+        Standard error of each fitted parameter (radians, then metres, then metres per newton):
+        the after-fit residual RMS through ``(J^T J + ridge)^-1``. A value as large as the
+        parameters' spread means the touches do not determine it.
+    pad_compliance_m_per_n : float or None
+        The pad's fitted compression on the ball per newton, metres (None: not fitted).
     """
 
     offset_rad: np.ndarray
@@ -93,12 +122,15 @@ class FitResult:
     singular_values: np.ndarray
     link_length_error_m: dict = field(default_factory=dict)
     parameter_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    pad_compliance_m_per_n: float | None = None
 
 
-def sphere_residuals_m(kinematics, touches: SphereTouches, offset_rad, link_length_error_m=None) -> np.ndarray:
-    """Signed distance (n,) of each touch's computed pad point from the sphere, metres.
+def sphere_residuals_m(kinematics, touches: SphereTouches, offset_rad, link_length_error_m=None,
+                       pad_compliance_m_per_n: float = 0.0) -> np.ndarray:
+    """Signed distance (n,) of each touch's computed surface point from the sphere, metres.
 
     ``link_length_error_m`` (joint name -> metres, optional): the model's links are that much longer.
+    ``pad_compliance_m_per_n``: the pad face sank that far per newton (needs ``touches.force_n``).
     """
     q = touches.q_rad - np.asarray(offset_rad, float)
     points = kinematics.pad_position_from_orientation(q, touches.body_quat_wxyz)
@@ -106,6 +138,8 @@ def sphere_residuals_m(kinematics, touches: SphereTouches, offset_rad, link_leng
         from robots.link_lengths import link_length_shift_m
 
         points = points + link_length_shift_m(kinematics, q, link_length_error_m)
+    if pad_compliance_m_per_n:
+        points = points + pad_compliance_m_per_n * touches.compression_directions()
     return np.linalg.norm(points - touches.centre_m, axis=1) - touches.radius_m
 
 
@@ -121,8 +155,9 @@ class _FastResiduals:
         self.pivot = kinematics.link_index(kinematics.spec.pivot_link)
         self.parents = [kinematics.link_index(link.parent_link) for link in links]
         self.directions = np.array([link.direction for link in links]).reshape(-1, 3)
+        self.compression = touches.compression_directions()
 
-    def __call__(self, offset_rad, lengths_m) -> np.ndarray:
+    def __call__(self, offset_rad, lengths_m, compliance_m_per_n: float = 0.0) -> np.ndarray:
         import torch
 
         q = torch.as_tensor(self.touches.q_rad - offset_rad, dtype=torch.float64)
@@ -131,18 +166,20 @@ class _FastResiduals:
         points = transforms[self.pivot, :, :3, 3] + self.pad_offset_m
         for parent, direction, length in zip(self.parents, self.directions, lengths_m):
             points = points + length * (transforms[parent, :, :3, :3] @ direction)
+        points = points + compliance_m_per_n * self.compression
         return np.linalg.norm(points - self.touches.centre_m, axis=1) - self.touches.radius_m
 
 
 #: Robust fit defaults (:func:`fit_joint_offsets` ``robust_scale_m``), chosen on the hardware-like
-#: ball touches of ARMAR-6 and ARMAR-III at seed 0 and checked on ARMAR-6 seeds 1-3 (BENCHMARKS.md).
-ROBUST_SCALE_M = 5e-4
+#: ball touches of ARMAR-6 and ARMAR-III at seed 0 and checked on seeds 1-3 (BENCHMARKS.md, issue
+#: 12): the ridge with plain touches; the scale (0.5 -> 1 mm) once the fit models the pad's compression.
+ROBUST_SCALE_M = 1e-3
 ROBUST_RIDGE_M_PER_RAD = 0.2
 
 
 def fit_joint_offsets(kinematics, touches: SphereTouches, ridge_m_per_rad: float = 0.02,
                       link_lengths: bool = False, ridge_m_per_m: float = 0.05,
-                      robust_scale_m: float | None = None) -> FitResult:
+                      robust_scale_m: float | None = None, pad_compliance: bool | None = None) -> FitResult:
     """Joint offsets (and link lengths) from sphere touches, least squares or robust (module docstring).
 
     Parameters
@@ -165,37 +202,49 @@ def fit_joint_offsets(kinematics, touches: SphereTouches, ridge_m_per_rad: float
         ridge``): a small pull towards zero that large offsets the touches demand can overcome.
         The touches see the pad only along the ball's radius, so directions that slide the pad
         over the ball stay unseen; that prior keeps them at zero. None: plain least squares.
+    pad_compliance : bool, optional
+        Also fit the pad's compression per newton (module docstring; no ridge). Default: when the
+        touches carry their forces.
     """
     from scipy.optimize import least_squares
 
     if robust_scale_m is not None and not robust_scale_m > 0.0:
         raise ValueError(f"robust_scale_m must be positive metres, got {robust_scale_m}")
+    if pad_compliance is None:
+        pad_compliance = touches.force_n is not None
+    elif pad_compliance and touches.force_n is None:
+        raise ValueError("pad_compliance needs each touch's force (SphereTouches.force_n)")
     dof = touches.q_rad.shape[1]
     links = _arm_links(kinematics) if link_lengths else ()
     names = [link.joint for link in links]
-    unknowns = dof + len(names)
+    unknowns = dof + len(names) + int(pad_compliance)
     if len(touches.q_rad) < unknowns:
         links = f" and {len(names)} link lengths" if names else ""
         raise ValueError(f"{len(touches.q_rad)} touches cannot determine {dof} joint offsets{links}; touch at "
                          f"least {unknowns} (better 3 x {unknowns}) poses")
+    lengths_end = dof + len(names)
 
     def split(x):
-        return x[:dof], dict(zip(names, x[dof:]))
+        return x[:dof], dict(zip(names, x[dof:lengths_end])), (float(x[-1]) if pad_compliance else 0.0)
 
     fast = _FastResiduals(kinematics, touches, links)
 
-    def residuals(x):
-        return np.concatenate([fast(x[:dof], x[dof:]), ridge_m_per_rad * x[:dof], ridge_m_per_m * x[dof:]])
+    def touch_residuals(x):
+        return fast(x[:dof], x[dof:lengths_end], x[-1] if pad_compliance else 0.0)
 
-    scale = np.concatenate([np.full(dof, 0.01), np.full(len(names), 0.001)])
+    def residuals(x):
+        return np.concatenate([touch_residuals(x), ridge_m_per_rad * x[:dof], ridge_m_per_m * x[dof:lengths_end]])
+
+    scale = np.concatenate([np.full(dof, 0.01), np.full(len(names), 0.001), np.full(int(pad_compliance), 0.001)])
     loss = dict(loss="cauchy", f_scale=robust_scale_m) if robust_scale_m else {}
     solution = least_squares(residuals, np.zeros(unknowns), method="trf", x_scale=scale, diff_step=1e-6, **loss)
     n = len(touches.q_rad)
-    jac = _touch_jacobian(fast, solution.x, dof) if robust_scale_m else solution.jac[:n]  # unweighted rows
+    jac = _touch_jacobian(touch_residuals, solution.x) if robust_scale_m else solution.jac[:n]  # unweighted rows
     singular = np.linalg.svd(jac, compute_uv=False)
-    offset, lengths = split(solution.x)
-    after = sphere_residuals_m(kinematics, touches, offset, lengths)
-    ridge = np.concatenate([np.full(dof, ridge_m_per_rad**2), np.full(len(names), ridge_m_per_m**2)])
+    offset, lengths, compliance = split(solution.x)
+    after = sphere_residuals_m(kinematics, touches, offset, lengths, compliance)
+    ridge = np.concatenate([np.full(dof, ridge_m_per_rad**2), np.full(len(names), ridge_m_per_m**2),
+                            np.zeros(int(pad_compliance))])
     if robust_scale_m:  # the scatter of the touches the loss kept, not of the ones it let go
         sigma = float(1.4826 * np.median(np.abs(after - np.median(after))))
     else:
@@ -203,17 +252,19 @@ def fit_joint_offsets(kinematics, touches: SphereTouches, ridge_m_per_rad: float
     std = sigma * np.sqrt(np.diag(np.linalg.inv(jac.T @ jac + np.diag(ridge))))
     return FitResult(offset_rad=offset, residual_before_m=sphere_residuals_m(kinematics, touches, np.zeros(dof)),
                      residual_after_m=after, singular_values=singular,
-                     link_length_error_m={k: float(v) for k, v in lengths.items()}, parameter_std=std)
+                     link_length_error_m={k: float(v) for k, v in lengths.items()}, parameter_std=std,
+                     pad_compliance_m_per_n=compliance if pad_compliance else None)
 
 
-def _touch_jacobian(fast: _FastResiduals, x: np.ndarray, dof: int, step: float = 1e-6) -> np.ndarray:
+def _touch_jacobian(touch_residuals: Callable[[np.ndarray], np.ndarray], x: np.ndarray,
+                    step: float = 1e-6) -> np.ndarray:
     """(n, unknowns) central-difference Jacobian of the touch residuals at ``x``."""
     columns = []
     for j in range(len(x)):
         up, down = x.copy(), x.copy()
         up[j] += step
         down[j] -= step
-        columns.append((fast(up[:dof], up[dof:]) - fast(down[:dof], down[dof:])) / (2.0 * step))
+        columns.append((touch_residuals(up) - touch_residuals(down)) / (2.0 * step))
     return np.stack(columns, axis=1)
 
 
@@ -258,7 +309,7 @@ def cross_validated_ridge(kinematics, touches: SphereTouches, ridges=RIDGE_LADDE
             fit = fit_joint_offsets(kinematics, touches.subset(fold_of != k), ridge_m_per_rad=ridge,
                                     link_lengths=link_lengths)
             residual = sphere_residuals_m(kinematics, touches.subset(fold_of == k), fit.offset_rad,
-                                          fit.link_length_error_m or None)
+                                          fit.link_length_error_m or None, fit.pad_compliance_m_per_n or 0.0)
             fold_ms.append(float(np.mean(residual**2)))
         fold_ms = np.array(fold_ms)
         rms = float(np.sqrt(fold_ms.mean()))

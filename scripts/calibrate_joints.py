@@ -4,9 +4,10 @@ show before/after.
 The lab procedure of :mod:`robots.joint_calibration` run on the simulated robot of a profile: a
 5 cm ball is placed at three known places in front of the arm; the fingertip touches it at
 ``--touches`` poses (guarded approach stopped by the pressure detector, held while the spring
-settles, orientation from the IMU). The first two thirds of the touches calibrate (a robust fit by
-default: a touch whose pad did not lie flat on the ball does not bend the offsets; ``--least-squares``
-is the plain fit with a cross-validated ridge), the last third
+settles, orientation from the IMU, force from the pad's pressure). The first two thirds of the
+touches calibrate (a robust fit by default: a touch whose pad did not lie flat on the ball does not
+bend the offsets; the pad's compression on the ball is fitted with them from each touch's force;
+``--least-squares`` is the plain fit with a cross-validated ridge), the last third
 are held out: their pad position computed from the encoders is compared with the simulator's true
 pad position before and after the offsets are applied. Writes ``joint_calibration.json`` and
 ``joint_calibration.png`` into ``--out``.
@@ -58,7 +59,8 @@ def touch_poses(kinematics, count: int, rng: np.random.Generator):
 
 def run_touches(profile, robot: str, count: int, seed: int, progress=None):
     """Touch the ball ``count`` times; returns per-touch reported q, IMU body quaternion, true pad
-    position, ball centre, all (n, ...) arrays, and the arm's true offsets."""
+    position, ball centre, all (n, ...) arrays, the arm's true offsets, the kinematics, the true
+    link-length errors and each touch's force from the pad's pressure ((n,) newtons)."""
     import objects
     import robots
     from robots.ik import solve_pad_ik
@@ -119,14 +121,14 @@ def run_touches(profile, robot: str, count: int, seed: int, progress=None):
                 estimate = estimate_normal(hold, baseline)
             except OrientationNotSettledError:
                 continue
-            rows.append((q_read, estimate.body_quat_wxyz, pad_true, centre))
+            rows.append((q_read, estimate.body_quat_wxyz, pad_true, centre, estimate.force_n))
             if progress:
                 progress(f"touch {k + 1}/{len(centres)}: {len(rows)} usable")
         true_offsets = np.asarray(encoder.offset_rad) if encoder.offset_rad else np.zeros(spec.dof)
     if not rows:
         raise RuntimeError("no usable touch of the ball (none stopped by the detector with a settled orientation)")
-    q, quats, pads, balls = (np.array(v) for v in zip(*rows))
-    return q, quats, pads, balls, true_offsets, kinematics, dict(arm.link_length_error_m)
+    q, quats, pads, balls, forces = (np.array(v) for v in zip(*rows))
+    return q, quats, pads, balls, true_offsets, kinematics, dict(arm.link_length_error_m), forces
 
 
 def kinematic_touches(profile, robot: str, count: int, seed: int):
@@ -135,7 +137,8 @@ def kinematic_touches(profile, robot: str, count: int, seed: int):
     the same planned poses; the encoders read the true angles plus the offsets, half the backlash
     in a random direction and the resolution; the IMU's orientation carries a heading offset
     (``imu_heading_offset_std_deg``, one per run, about the vertical) and a tilt error
-    (``imu_tilt_bias_std_deg``, per touch); the mounting is taken as calibrated. Same returns."""
+    (``imu_tilt_bias_std_deg``, per touch); the mounting is taken as calibrated. Same returns, but
+    no forces (None): the pad lies on the ball uncompressed."""
     import tempfile
 
     import robots
@@ -168,7 +171,7 @@ def kinematic_touches(profile, robot: str, count: int, seed: int):
     tilt = Rotation.from_rotvec(axes * np.radians(profile.imu_tilt_bias_std_deg) * rng.standard_normal((len(q_true), 1)))
     measured = (heading * tilt * Rotation.from_matrix(body.rotation)).as_matrix()
     balls = pad.position_m + BALL_RADIUS_M * pad.z_axis  # the pad lies flat on the ball
-    return q_read, matrix_to_quat(measured), pad.position_m, balls, offsets, kinematics, lengths
+    return q_read, matrix_to_quat(measured), pad.position_m, balls, offsets, kinematics, lengths, None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -202,17 +205,18 @@ def main(argv: list[str] | None = None) -> int:
 
     started = time.perf_counter()
     if args.kinematic:
-        q, quats, pads, balls, truth, kinematics, true_lengths = kinematic_touches(profile, args.robot, args.touches,
-                                                                                   args.seed)
+        q, quats, pads, balls, truth, kinematics, true_lengths, forces = kinematic_touches(
+            profile, args.robot, args.touches, args.seed)
     else:
-        q, quats, pads, balls, truth, kinematics, true_lengths = run_touches(
+        q, quats, pads, balls, truth, kinematics, true_lengths, forces = run_touches(
             profile, args.robot, args.touches, args.seed,
             progress=lambda line: print(line, file=sys.stderr, flush=True))
     n_fit = (2 * len(q)) // 3
     if n_fit < kinematics.dof + 4:
         print(f"calibrate_joints: only {len(q)} touches were usable; raise --touches", file=sys.stderr)
         return 1
-    calibration_touches = SphereTouches(q[:n_fit], quats[:n_fit], balls[:n_fit], BALL_RADIUS_M)
+    calibration_touches = SphereTouches(q[:n_fit], quats[:n_fit], balls[:n_fit], BALL_RADIUS_M,
+                                        None if forces is None else forces[:n_fit])
     if args.least_squares:
         ridge = cross_validated_ridge(kinematics, calibration_touches, link_lengths=args.link_lengths)
         ridge_m_per_rad, robust_scale_m, scores = ridge.ridge_m_per_rad, None, ridge.scores_m
@@ -241,6 +245,10 @@ def main(argv: list[str] | None = None) -> int:
         "fitted_link_length_error_mm": {k: round(1e3 * v, 4) for k, v in fit.link_length_error_m.items()},
         "link_length_std_mm": dict(zip(fit.link_length_error_m, (1e3 * fit.parameter_std[dof:]).round(4).tolist())),
         "singular_values": fit.singular_values.round(5).tolist(),
+        "pad_compliance_mm_per_n": (None if fit.pad_compliance_m_per_n is None
+                                    else round(1e3 * fit.pad_compliance_m_per_n, 4)),
+        "pad_compliance_std_mm_per_n": (None if fit.pad_compliance_m_per_n is None
+                                        else round(1e3 * float(fit.parameter_std[-1]), 4)),
         "fit": "least squares, cross-validated ridge" if args.least_squares else "robust (Cauchy loss)",
         "robust_scale_mm": None if robust_scale_m is None else 1e3 * robust_scale_m,
         "touches_off_the_ball": (None if robust_scale_m is None

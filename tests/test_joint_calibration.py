@@ -195,3 +195,30 @@ def test_the_robust_fit_reports_the_unweighted_jacobian(kinematics, true_touches
     np.testing.assert_allclose(robust.singular_values, plain.singular_values, rtol=1e-3)
     with pytest.raises(ValueError, match="robust_scale_m must be positive"):
         fit_joint_offsets(kinematics, touches, robust_scale_m=-1e-3)
+
+
+def test_the_pads_compression_is_fitted_from_each_touchs_force(kinematics, true_touches):
+    """Each pad face sank 2 mm per newton into the ball at forces of 0.1-3 N (the face centre is
+    that far inside the sphere along its normal): left out, the compression bends the offsets;
+    with the forces the fit gives back the injected compliance and the offsets."""
+    q_true, quats, centre, radius = true_touches
+    injected = np.radians([0.6, -0.4, 0.3, 0.5, -0.7, 0.2, -0.3])
+    compliance = 2e-3
+    force = np.random.default_rng(9).uniform(0.1, 3.0, len(q_true))
+    pads = kinematics.pad_position_from_orientation(q_true, quats)
+    outward = (pads - centre) / np.linalg.norm(pads - centre, axis=1, keepdims=True)
+    sunk = centre + (compliance * force)[:, None] * outward  # the same as the face sinking into the ball
+    with_force = SphereTouches(q_true + injected, quats, sunk, radius, force)
+    assert np.abs(sphere_residuals_m(kinematics, with_force, injected, None, compliance)).max() < 1e-3
+    fit = fit_joint_offsets(kinematics, with_force, ridge_m_per_rad=0.0)
+    assert fit.pad_compliance_m_per_n == pytest.approx(compliance, rel=0.05)
+    np.testing.assert_allclose(fit.offset_rad[:4], injected[:4], atol=math.radians(0.1))
+    assert fit.parameter_std.shape == (kinematics.dof + 1,)
+    without = fit_joint_offsets(kinematics, SphereTouches(q_true + injected, quats, sunk, radius), ridge_m_per_rad=0.0)
+    assert without.pad_compliance_m_per_n is None
+    assert _pivot_error_m(kinematics, injected, fit.offset_rad) < 0.5 * _pivot_error_m(kinematics, injected,
+                                                                                       without.offset_rad)
+    with pytest.raises(ValueError, match="force_n must be"):
+        SphereTouches(q_true, quats, centre, radius, force[:-1])
+    with pytest.raises(ValueError, match="needs each touch's force"):
+        fit_joint_offsets(kinematics, SphereTouches(q_true, quats, centre, radius), pad_compliance=True)
