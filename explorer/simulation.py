@@ -14,6 +14,7 @@ import objects
 import robots
 from explorer.positioner import SimulatedStand, turntable_poses
 from robots.kinematics import ArmKinematics
+from robots.pad_compliance import measure_pad_compliance_m_per_n
 from robots.sim_arm import SimArm
 from robots.sim_world import SimWorld
 from sensor.pad_calibration import PAD_STIFFNESS_N_PER_M, PadCalibration
@@ -36,8 +37,9 @@ class SimScene:
     object_model : objects.ObjectModel
         Ground truth (object frame).
     pad : PadCalibration
-        The simulated pad's own force model and the nominal compliance (what the lab's
-        calibration gives; the profile may make the simulated pad softer than that).
+        The simulated pad's own force model and its compliance measured on a flat plate
+        (:func:`robots.pad_compliance.measure_pad_compliance_m_per_n`), as a lab calibrates a
+        real pad's.
     profile : SimProfile
         The errors this scene simulates.
     """
@@ -85,6 +87,9 @@ def build_scene(object_name: str, robot_name: str = "armar3", seed: int = 0, gui
         :mod:`explorer.sim_profile`): spring friction, pad friction, encoders, calibration errors, chips.
     stand_centre_m : (3,) float, optional
         Where the object-frame origin sits in the world (default: the robot's workspace centre).
+    pad_stiffness_n_per_m : float
+        The simulated pad's contact stiffness per contact point (PyBullet's), N/m, unless the
+        profile sets it; the loop's compliance is measured from the resulting pad.
     """
     profile = get_profile(profile)
     model = objects.load(object_name)
@@ -103,7 +108,7 @@ def build_scene(object_name: str, robot_name: str = "armar3", seed: int = 0, gui
         sensor = SimulatedTactileSensor(config=sensor_config, seed=seed)
         connect_sensor(world, arm, sensor)
         sensor.open()
-        pad = PadCalibration(sensor.config.barometer.pad, 1.0 / pad_stiffness_n_per_m,
+        pad = PadCalibration(sensor.config.barometer.pad, measure_pad_compliance_m_per_n(spec),
                              spring_stiffness_nm_per_rad=spec.spring_stiffness_nm_per_rad)
         return SimScene(world, arm, sensor, ArmKinematics(spec), stand, model, pad, profile)
     except Exception:
