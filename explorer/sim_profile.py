@@ -267,7 +267,9 @@ PARAMETER_SOURCES: dict[str, str] = {
     "pad_lateral_friction": "0: the robot spec's 0.4 kept; measured in tuning: 0.8 jams the pad at 50 deg "
                             "tilt in every press (32 deg error), 0.5 at 40-50 deg in some",
     "pad_contact_stiffness_n_per_m": "calibrated: per contact point (PyBullet puts one at each of the face's 4 "
-                                     "corners), 2 kN/m over the face = 0.5 mm per newton, a soft cast pad; "
+                                     "corners), a soft cast pad: 0.76 mm per newton on a flat plate as "
+                                     "measured (robots/pad_compliance.py; the loop's compliance), more on "
+                                     "curved surfaces and edges (fewer contact points); "
                                      "its rotational stiffness against the spring's torque sets how far the "
                                      "module stays tilted, growing with the tilt",
     "imu_white_noise_deg": "BNO055 data sheet Table 0-2 and 3-4: 150 ug/sqrt(Hz) x sqrt(62.5 Hz) / g",
