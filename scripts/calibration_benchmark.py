@@ -82,30 +82,31 @@ def table(results: list[dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from scripts._cli import check_out_dir, check_robot, int_at_least
+
     parser = argparse.ArgumentParser(prog="calibration_benchmark", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--profile", default="hardware-like")
     parser.add_argument("--robots", default="armar3,armar6", help="comma-separated robot names")
     parser.add_argument("--seeds", default="0,1", help="comma-separated seeds")
-    parser.add_argument("--touches", type=int, default=36)
+    parser.add_argument("--touches", type=int_at_least(12), default=36)
     parser.add_argument("--scales", default="0.5,1.0", help="comma-separated Cauchy scales, mm")
-    parser.add_argument("--subsets", type=int, default=20, help="random two-thirds draws per fit")
+    parser.add_argument("--subsets", type=int_at_least(1), default=20, help="random two-thirds draws per fit")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
-    import robots
     from explorer.sim_profile import get_profile
 
+    for robot in args.robots.split(","):
+        check_robot(parser, robot, "--robots")
+    check_out_dir(parser, args.out)
     try:
         profile = get_profile(args.profile)
         seeds = [int(s) for s in args.seeds.split(",")]
         scales = [1e-3 * float(s) for s in args.scales.split(",")]
     except ValueError as error:
         parser.error(str(error))
-    unknown = sorted(set(args.robots.split(",")) - set(robots.names()))
-    if unknown:
-        parser.error(f"unknown robot(s) {', '.join(unknown)}; known: {', '.join(robots.names())}")
-    if args.touches < 12 or args.subsets < 1 or min(scales) <= 0.0:
-        parser.error("--touches must be at least 12, --subsets at least 1 and every scale positive")
+    if min(scales) <= 0.0:
+        parser.error(f"--scales: every Cauchy scale must be positive millimetres, got {args.scales}")
     import torch
 
     torch.set_num_threads(1)

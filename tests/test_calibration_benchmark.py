@@ -23,7 +23,8 @@ def test_the_score_is_the_pad_error_the_leftover_offsets_give():
 
 @pytest.mark.parametrize("argv, message", [
     (["--robots", "armar9"], "unknown robot"),
-    (["--scales", "0"], "every scale positive"),
+    (["--scales", "0"], "every Cauchy scale must be positive"),
+    (["--touches", "5"], "must be at least 12"),
     (["--seeds", "one"], "invalid literal"),
 ])
 def test_bad_input_is_refused_with_one_line(tmp_path, capsys, argv, message):
