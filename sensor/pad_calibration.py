@@ -17,7 +17,9 @@ from sensor.normal_estimation import ImuAlignment
 from sensor.sim.pad_response import PadResponse
 
 #: Contact stiffness of the 3.7 mm polyurethane pad: a soft cast pad (shore 00, about 0.04 MPa)
-#: over the 18 x 18 mm face compresses about 0.3 mm per newton.
+#: over the 18 x 18 mm face compresses about 0.3 mm per newton (the nominal compliance below).
+#: The simulation uses it as PyBullet's stiffness per contact point, and the simulated face then
+#: compresses 0.136 mm/N: its scenes measure that (``robots.pad_compliance``) instead.
 PAD_STIFFNESS_N_PER_M = 3.0e3
 #: Bending stiffness of the fingertip's coil spring per axis, N m/rad (the value of
 #: ``robots.fingertip.DEFAULT_SPRING_STIFFNESS_NM_PER_RAD``; sensor does not import robots).
