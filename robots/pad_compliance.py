@@ -45,6 +45,7 @@ def measure_pad_compliance_m_per_n(spec) -> float:
 
 @lru_cache(maxsize=16)
 def _measured(spec) -> float:
+    from common.rotations import matrix_to_quat
     from robots.ik import solve_pad_ik
     from robots.kinematics import ArmKinematics
     from robots.sim_arm import SimArm
@@ -63,11 +64,7 @@ def _measured(spec) -> float:
     with tempfile.TemporaryDirectory() as directory, SimWorld(table=None) as world:
         urdf = Path(directory) / "plate.urdf"
         urdf.write_text(to_urdf(RobotModel("plate", (Link("plate", 1.0, shapes=(Shape(Box((0.2, 0.2, thickness))),)),))))
-        x = np.cross([0.0, 1.0, 0.0], normal) if abs(normal[1]) < 0.9 else np.cross([1.0, 0.0, 0.0], normal)
-        x /= np.linalg.norm(x)
-        from common.rotations import matrix_to_quat
-
-        frame = np.stack([x, np.cross(normal, x), normal], axis=1)
+        frame = home.rotation @ np.diag([1.0, -1.0, -1.0])  # the pad's frame turned to face it: +z = normal
         world.add_object(urdf, face_centre - 0.5 * thickness * normal, matrix_to_quat(frame), name="plate")
         arm = SimArm(world, spec)
         forces, depths = [], []
