@@ -46,6 +46,10 @@ class ContactTruth:
         True closest surface points, metres.
     true_normal : (n, 3) float
         True outward normals there (of the closest face).
+    offset_m : (n,) float
+        ``position_error_m`` signed: positive where a contact lies outside the surface (along the
+        closest face's outward normal), metres. A wrong pad compliance shows here as an offset that
+        grows with the force.
     """
 
     position_error_m: np.ndarray
@@ -54,6 +58,7 @@ class ContactTruth:
     normal_spread_rad: np.ndarray
     closest_m: np.ndarray
     true_normal: np.ndarray
+    offset_m: np.ndarray
 
 
 def contact_truth(points: np.ndarray, normals: np.ndarray, mesh, sharp_edges: np.ndarray,
@@ -92,8 +97,9 @@ def contact_truth(points: np.ndarray, normals: np.ndarray, mesh, sharp_edges: np
             cosines = sample_normals[near] @ true_normal[i]
             cosines = cosines[cosines > np.cos(np.radians(100.0))]
             spread[i] = float(np.arccos(np.clip(cosines.min(), -1.0, 1.0))) if len(cosines) else 0.0
+    outside = np.einsum("ij,ij->i", points - closest, true_normal) >= 0.0
     return ContactTruth(distance, proximity.normal_cone_error(points, normals), segment_distance(closest, sharp_edges), spread,
-                        closest, true_normal)
+                        closest, true_normal, np.where(outside, distance, -distance))
 
 
 def segment_distance(points: np.ndarray, segments: np.ndarray) -> np.ndarray:

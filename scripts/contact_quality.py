@@ -10,7 +10,10 @@ and the realign touches. Simulated runs only (the truth is the run's object).
 Options: ``--replay recorded|pad-centre|current`` measures the contacts again from the session, as
 recorded, at the pad-face centre (the pipeline before issue 11), or with the current pipeline and
 the default doubtful-contact and realign rules (a session recorded before issue 11 then keeps its
-touch sequence: approximate); ``--csv FILE`` writes one row per contact; ``--json FILE`` the summary.
+touch sequence: approximate); ``--compliance MM_PER_N`` replays with that pad compliance instead of
+the recorded one (the contacts' offset from the surface then shows what it changes: the summary
+gives their median signed offset and its slope against the force); ``--csv FILE`` writes one row per
+contact; ``--json FILE`` the summary.
 """
 from __future__ import annotations
 
@@ -28,16 +31,20 @@ def parse_args(argv=None):
     parser.add_argument("runs", nargs="+", type=Path, help="run directories (each with session/)")
     parser.add_argument("--replay", choices=("recorded", "pad-centre", "current"),
                         help="measure the contacts again from the session with this pipeline")
+    parser.add_argument("--compliance", type=float, metavar="MM_PER_N",
+                        help="with --replay: the pad's compliance to measure with, mm per newton")
     parser.add_argument("--csv", type=Path, help="write one row per contact here")
     parser.add_argument("--json", type=Path, help="write the summary here")
     args = parser.parse_args(argv)
+    if args.compliance is not None and (args.replay is None or not args.compliance >= 0.0):
+        parser.error("--compliance needs --replay and a compliance >= 0 mm/N, e.g. --replay recorded --compliance 0.136")
     for run in args.runs:
         if not (run / "session" / "metadata.json").is_file() and not (run / "metadata.json").is_file():
             parser.error(f"{run}: not a run directory (no session/metadata.json); give the --out of a run")
     return args
 
 
-def run_contacts(run: Path, replay: str | None) -> tuple[str, list[dict]]:
+def run_contacts(run: Path, replay: str | None, compliance_m_per_n: float | None = None) -> tuple[str, list[dict]]:
     """The object name and one dict per pressed touch with a contact (kind, position, normal, quality)."""
     from explorer.session import SessionReader
 
@@ -50,6 +57,11 @@ def run_contacts(run: Path, replay: str | None) -> tuple[str, list[dict]]:
         from explorer.loop import LoopConfig
 
         replayer = SessionReplay(session)
+        if compliance_m_per_n is not None:
+            from dataclasses import replace
+
+            replayer.pad = replace(replayer.pad, compliance_m_per_n=compliance_m_per_n)
+            replayer.pipeline.pad = replayer.pad
         if replay != "recorded":
             current = replay == "current"
             replayer.legacy_contacts = not current
@@ -99,7 +111,7 @@ def analyse(object_name: str, rows: list[dict]):
     for i, row in enumerate(rows):
         q = row["quality"]
         out.append(dict(object=object_name, index=row["index"], kind=row["kind"], strategy=row["strategy"],
-                        position_error_mm=1e3 * truth.position_error_m[i],
+                        position_error_mm=1e3 * truth.position_error_m[i], offset_mm=1e3 * truth.offset_m[i],
                         normal_error_deg=float(np.degrees(truth.normal_error_rad[i])),
                         edge_distance_mm=1e3 * truth.edge_distance_m[i],
                         normal_spread_deg=float(np.degrees(truth.normal_spread_rad[i])),
@@ -128,7 +140,12 @@ def summary(table: list[dict]) -> dict:
         ang = np.array([r["normal_error_deg"] for r in used])
         doubtful = np.array([r["doubtful"] for r in used])
         out.update(position_rms_mm=float(np.sqrt(np.mean(pos ** 2))), normal_mean_deg=float(ang.mean()),
-                   doubtful_fraction=float(doubtful.mean()))
+                   doubtful_fraction=float(doubtful.mean()),
+                   offset_median_mm=float(np.median([r["offset_mm"] for r in used])))
+        forced = [r for r in used if r["force_n"] is not None]
+        if len({r["force_n"] for r in forced}) > 1:
+            out["offset_slope_mm_per_n"] = float(np.polyfit([r["force_n"] for r in forced],
+                                                            [r["offset_mm"] for r in forced], 1)[0])
         for name, mask in (("trusted", ~doubtful), ("doubtful", doubtful)):
             if mask.any():
                 out[f"{name}_position_rms_mm"] = float(np.sqrt(np.mean(pos[mask] ** 2)))
@@ -167,7 +184,7 @@ def main(argv=None) -> int:
     print("| run | object | contacts | realign | position RMS mm | normal mean deg | doubtful | "
           "trusted: pos / normal | doubtful: pos / normal |\n|---|---|---|---|---|---|---|---|---|")
     for run in args.runs:
-        name, rows = run_contacts(run, args.replay)
+        name, rows = run_contacts(run, args.replay, None if args.compliance is None else 1e-3 * args.compliance)
         rows_table = analyse(name, rows)
         table += rows_table
         s = summary(rows_table)
@@ -183,7 +200,8 @@ def main(argv=None) -> int:
     if total.get("contacts"):
         print(f"\nall: {total['contacts']} contacts, {total['realign']} realign, position RMS "
               f"{total['position_rms_mm']:.2f} mm, normal mean {total['normal_mean_deg']:.1f} deg, "
-              f"doubtful {total['doubtful_fraction']:.2f}")
+              f"doubtful {total['doubtful_fraction']:.2f}; offset from the surface median "
+              f"{total['offset_median_mm']:+.2f} mm, slope {total.get('offset_slope_mm_per_n', float('nan')):+.2f} mm/N")
     edge = binned(table, "edge_distance_mm", (0, 3, 6, 9, 15, np.inf))
     spread = binned(table, "normal_spread_deg", (0, 10, 25, 45, 70, 181))
     _print_bins("by distance of the true closest point to a sharp edge (mm)", edge)

@@ -326,6 +326,29 @@ def test_an_edged_shape_keeps_its_contacts_on_the_surface_and_realigns_within_bu
     centre_truth = contact_truth(centre.points_m, centre.normals, model.mesh, model.sharp_edges, samples=5000)
     assert rms <= float(np.sqrt(np.mean(centre_truth.position_error_m ** 2))) + 3e-4
 
+    # The analysis replays with another pad compliance: each contact moves out along its normal by
+    # force x the difference, which the signed offset from the surface shows.
+    from scripts.contact_quality import analyse, run_contacts
+
+    name, rows = run_contacts(tmp_path / "run", "recorded", compliance_m_per_n=0.0)
+    stiff = analyse(name, rows)
+    soft = analyse(*run_contacts(tmp_path / "run", "recorded", compliance_m_per_n=2e-3))
+    moved = [(b["offset_mm"] - a["offset_mm"]) / (2.0 * a["force_n"]) for a, b in zip(stiff, soft) if a["kind"] == "contact"]
+    assert len(moved) >= 3 and np.median(moved) == pytest.approx(1.0, abs=0.1)  # mm per (N x mm/N)
+
+
+def test_the_signed_offset_is_positive_outside_the_surface_and_negative_inside():
+    import trimesh
+
+    from explorer.contact_truth import contact_truth
+
+    box = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
+    points = np.array([[0.0, 0.0, 0.052], [0.0, 0.0, 0.047], [0.051, 0.02, 0.0], [0.0, -0.049, 0.01]])
+    normals = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+    truth = contact_truth(points, normals, box, np.zeros((0, 2, 3)), samples=2000)
+    np.testing.assert_allclose(truth.offset_m, [0.002, -0.003, 0.001, -0.001], atol=1e-9)
+    np.testing.assert_allclose(np.abs(truth.offset_m), truth.position_error_m)
+
 
 def model_half_pad() -> float:
     """A contact further than the pad's half width from the truth is not on the pad at all."""
@@ -339,3 +362,7 @@ def test_the_analysis_script_refuses_a_directory_without_a_run(tmp_path, capsys)
         main([str(tmp_path)])
     assert exit_info.value.code == 2
     assert "not a run directory" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_info:
+        main([str(tmp_path), "--compliance", "0.136"])
+    assert exit_info.value.code == 2
+    assert "--compliance needs --replay" in capsys.readouterr().err
