@@ -56,6 +56,29 @@ class SurfaceEvidence:
         """(k, 3) points outside the object (held back until the first contact)."""
         self._add_values(points, self.free_space_value, self.free_space_noise)
 
+    def add_touch(self, record, doubtful_normal_noise: float | None, misses: bool = True) -> None:
+        """What a recorded touch (:class:`explorer.touch.TouchOutcome`) tells, as the loop added it:
+        a contact (a doubtful one with ``doubtful_normal_noise`` as its normal-noise floor), a miss's
+        free space (unless ``misses`` is False), a press on the pad's side; nothing otherwise."""
+        if record.kind == "contact":
+            doubtful = getattr(record.quality, "doubtful", False)
+            self.add_contact(record.position_m, record.normal, doubtful_normal_noise if doubtful else None)
+        elif record.kind == "miss":
+            if misses and record.free_space_m is not None:
+                self.add_free_space(record.free_space_m)
+        elif record.side_m is not None:
+            self.add_side_press(record.side_m)
+
+    def rebuilt(self, records, doubtful_normal_noise: float | None, misses: bool = True) -> "SurfaceEvidence":
+        """New evidence with these settings on an unfitted copy of this GPIS, fed ``records`` in
+        order (:meth:`add_touch`): the field again from the recorded touches, or (``misses`` False)
+        without the misses' rows, which cannot be taken out of a factor."""
+        evidence = SurfaceEvidence(self.gpis.unfitted_copy(), self.free_space_value, self.free_space_noise,
+                                   self.side_press_value, self.side_press_noise)
+        for record in records:
+            evidence.add_touch(record, doubtful_normal_noise, misses)
+        return evidence
+
     def add_swept(self, points: np.ndarray) -> None:
         """(k, 3) points an approach swept before the pad met the surface (``TouchOutcome.swept_points``):
         free space, added only where the field disagrees, i.e. where its mean lies above
@@ -94,7 +117,8 @@ class SurfaceEvidence:
         self.gpis.add_values(points, np.full(len(points), value), noise=noise)
 
 
-def with_swept_free_space(gpis: GPIS, records, free_space_value: float, free_space_noise: float) -> tuple[GPIS, int]:
+def with_swept_free_space(gpis: GPIS, records, free_space_value: float, free_space_noise: float,
+                          misses: bool = False) -> tuple[GPIS, int]:
     """A copy of ``gpis`` that also holds the free space the pads of contacts and of presses on the
     pad's side swept on their approach lines (``TouchOutcome.swept_points``, up to
     ``-free_space_value`` short of where they met the surface), where the field disagrees
@@ -110,10 +134,16 @@ def with_swept_free_space(gpis: GPIS, records, free_space_value: float, free_spa
     records : sequence of explorer.touch.TouchOutcome
     free_space_value, free_space_noise : float
         As :class:`SurfaceEvidence` (``LoopConfig``'s).
+    misses : bool
+        Offer the misses' free space (``TouchOutcome.free_space_m``) through the same gate.
     """
     field = copy.deepcopy(gpis)
     lines = [np.asarray(r.swept_points(-free_space_value), float).reshape(-1, 3) for r in records]
+    if misses:
+        lines += [np.asarray(r.free_space_m, float).reshape(-1, 3) for r in records
+                  if r.kind == "miss" and r.free_space_m is not None]
     rows = field.n_rows
     SurfaceEvidence(field, free_space_value, free_space_noise).add_swept(
         np.vstack(lines) if lines else np.zeros((0, 3)))
     return field, field.n_rows - rows
+

@@ -161,6 +161,14 @@ class LoopConfig:
         split showed misses whose pad had been dragged around a tool's handle, off their line
         (``line_tolerance_m``; BENCHMARKS.md, "Firmer free space in the reconstruction"). None:
         ``free_space_noise`` (runs before 2026-11-27).
+    reconstruction_gates_misses : bool
+        The reconstruction takes a miss's free space as it takes the swept lines: only where the
+        final field puts surface nearer than ``-free_space_value``, at
+        ``reconstruction_free_space_noise`` (its field is rebuilt from the records without the loop's
+        ungated miss rows). A row at ``free_space_value`` on a point the field already has
+        centimetres outside pulls the surface out towards it: on the bowls those rows cost 0.3-0.9
+        mm (BENCHMARKS.md, "The misses' free space through the gate"). The loop's field keeps them.
+        False: runs recorded before this setting.
     line_tolerance_m : float or None
         A miss's free space ends ``-free_space_value`` before the point where the pad (forward
         kinematics of the encoders) first was this far off its planned line, as for an approach
@@ -217,6 +225,7 @@ class LoopConfig:
     drop_released_presses: bool = True
     swept_free_space: bool = True
     reconstruction_free_space_noise: float | None = 0.002
+    reconstruction_gates_misses: bool = True
     line_tolerance_m: float | None = 0.005
     stop_off_line: bool = False
     loose_settle_deviation_rad: float | None = float(np.radians(1.5))
@@ -231,12 +240,22 @@ class LoopConfig:
                        average_window_s=settling.settle_window_s)
 
     def reconstruction_field(self, gpis: GPIS, records) -> tuple[GPIS, int]:
-        """The field the run's reconstruction is meshed from (``gpis`` plus the free-space rows of
-        ``swept_free_space``; ``gpis`` itself is unchanged) and the number of rows it adds."""
+        """The field the run's reconstruction is meshed from and the number of free-space rows it
+        adds: ``gpis`` (rebuilt from ``records`` without the misses' rows when
+        ``reconstruction_gates_misses``) plus the gated rows of ``swept_free_space``. ``gpis`` itself
+        is unchanged."""
         if not self.swept_free_space:
             return gpis, 0
         noise = self.free_space_noise if self.reconstruction_free_space_noise is None else self.reconstruction_free_space_noise
-        return with_swept_free_space(gpis, records, self.free_space_value, noise)
+        if self.reconstruction_gates_misses:
+            gpis = self.evidence(gpis).rebuilt(records, self.doubtful_normal_noise, misses=False).gpis
+        return with_swept_free_space(gpis, records, self.free_space_value, noise,
+                                     misses=self.reconstruction_gates_misses)
+
+    def evidence(self, gpis: GPIS) -> SurfaceEvidence:
+        """What touches add to ``gpis`` under these settings."""
+        return SurfaceEvidence(gpis, self.free_space_value, self.free_space_noise, self.side_press_value,
+                               self.side_press_noise)
 
     def doubt_rule(self) -> DoubtRule:
         """The doubtful-contact rule of these settings."""
@@ -312,8 +331,7 @@ class ExplorationLoop:
                                                 release_threshold_pa=self.detector.config.end_threshold_pa
                                                 if config.drop_released_presses else None,
                                                 loose_settling=config.loose_settling(settling))
-        self.evidence = SurfaceEvidence(gpis, config.free_space_value, config.free_space_noise,
-                                        config.side_press_value, config.side_press_noise)
+        self.evidence = config.evidence(gpis)
         self.state = ExplorationState(rig.prior, motion=MotionTimeEstimator(planner, rig.positioner))
         self.records: list[TouchOutcome] = []
         self.times = PhaseTimes()
@@ -419,12 +437,7 @@ class ExplorationLoop:
             if record.strategy and record.strategy != "realign":
                 self.strategy.accepted(Touch(record.target_m, record.approach_dir, strategy=record.strategy))
             self.state.passed_m.extend(record.passed_points(-self.config.free_space_value))
-            if record.kind == "contact":
-                self.evidence.add_contact(record.position_m, record.normal, self._normal_noise(record))
-            elif record.kind == "miss" and record.free_space_m is not None:
-                self.evidence.add_free_space(record.free_space_m)
-            elif record.side_m is not None:
-                self.evidence.add_side_press(record.side_m)
+            self.evidence.add_touch(record, self.config.doubtful_normal_noise)
         if records and records[-1].kind == "realign":
             last = records[-1]
             self._follow_up = Touch(last.position_m, -last.normal, strategy="realign",

@@ -50,7 +50,6 @@ from explorer import outputs
 from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, PressReleased,
                               wants_realign)
 from explorer.evaluation import jsonable
-from explorer.evidence import SurfaceEvidence
 from explorer.loop import LoopConfig
 from explorer.outputs import add_errors, write_figures, write_mesh
 from explorer.planner import PlannerConfig, approach_line
@@ -302,6 +301,8 @@ class SessionReplay:
             self.loop_config = replace(self.loop_config, loose_settle_deviation_rad=None)
         if "reconstruction_free_space_noise" not in recorded_loop:  # meshed with the loop's free-space noise
             self.loop_config = replace(self.loop_config, reconstruction_free_space_noise=None)
+        if "reconstruction_gates_misses" not in recorded_loop:  # meshed with the loop's miss rows
+            self.loop_config = replace(self.loop_config, reconstruction_gates_misses=False)
         doubt = (DoubtRule() if self.teleop else DoubtRule(-np.inf) if self.legacy_contacts
                  else self.loop_config.doubt_rule())
         self.pipeline = ContactPipeline(self.kinematics, self.pad, self.settling,
@@ -491,11 +492,7 @@ class SessionReplay:
                    if v is not None}
         gpis = GPIS(kernel=settings.kernel, use_normals=use_normals,
                     bounds=None if self.prior is None else self.prior.bounds(), **options)
-        cfg = self.loop_config
-        side_noise = cfg.side_press_noise  # as recorded
-        if settings.side_presses is not None:
-            side_noise = (cfg.side_press_noise or LoopConfig.side_press_noise) if settings.side_presses else None
-        evidence = SurfaceEvidence(gpis, cfg.free_space_value, cfg.free_space_noise, cfg.side_press_value, side_noise)
+        evidence = self._loop_config(settings).evidence(gpis)
         for touch in touches:
             if touch.kind == "contact":
                 try:
@@ -512,6 +509,13 @@ class SessionReplay:
             elif touch.kind == "no_normal" and touch.side_m is not None:
                 evidence.add_side_press(touch.side_m)
         return gpis
+
+    def _loop_config(self, settings: ReplaySettings) -> LoopConfig:
+        """The recorded loop settings, with the side presses as ``settings`` asks."""
+        if settings.side_presses is None:
+            return self.loop_config
+        side_noise = (self.loop_config.side_press_noise or LoopConfig.side_press_noise) if settings.side_presses else None
+        return replace(self.loop_config, side_press_noise=side_noise)
 
     def _max_realigns(self) -> int:
         """The loop's realign budget; sessions recorded before it existed had none (every
@@ -572,7 +576,8 @@ class SessionReplay:
         resolution = settings.mesh_resolution or int(self.configuration.get("mesh_resolution", 96))
         field = result.gpis
         if self.loop_config.swept_free_space and not self.teleop:  # as the run's reconstruction had it
-            field, metrics["swept_free_space_rows"] = self.loop_config.reconstruction_field(field, result.touches)
+            field, metrics["swept_free_space_rows"] = self._loop_config(settings).reconstruction_field(
+                field, result.touches)
         mesh = write_mesh(field, resolution, out, metrics)
         add_errors(metrics, mesh, self.truth, result.points_m, result.normals)
         outputs.write_json(out / "metrics.json", jsonable(metrics))

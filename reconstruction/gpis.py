@@ -191,6 +191,13 @@ class GPIS:
         self._append(points, values, None, noise)
         return self
 
+    def unfitted_copy(self) -> "GPIS":
+        """A GPIS with this one's settings (kernel, noises, trend, bounds) and no observations, to
+        rebuild a field from a subset of its evidence (rows cannot be taken out of a factor)."""
+        return GPIS(kernel=self.kernel_spec, noise=self.noise, normal_noise=self.normal_noise,
+                    use_normals=self.use_normals, bounds=self.bounds, trend=self.trend_spec,
+                    opposing_normal_noise=self.opposing_normal_noise, opposing_radius_m=self.opposing_radius_m)
+
     @property
     def n_contacts(self) -> int:
         return sum(len(p) for p in self._contact_points)

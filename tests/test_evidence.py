@@ -103,3 +103,78 @@ def test_the_swept_line_ends_a_margin_short_of_a_contact_or_a_side_press_and_is_
         touch = TouchOutcome(2, kind, target, approach, position_m=np.array([0.0, 0.0, 0.0]))
         assert touch.swept_points(0.009).shape == (0, 3)
     assert TouchOutcome(3, "no_normal", target, approach).swept_points(0.009).shape == (0, 3)
+
+
+def _records():
+    """A contact, a doubtful contact, a miss whose line runs from 3 cm outside the sphere's -y side
+    to its surface, and a press on the pad's side, as the loop records them."""
+    from explorer.contact import ContactQuality
+    from explorer.touch import TouchOutcome
+
+    down = np.array([0.0, 0.0, -1.0])
+    doubtful = ContactQuality(force_n=2.0, n_readings=10, approach_cosine=0.9, tilt_rad=0.1,
+                              pad_uv_m=np.zeros(2), rim_distance_m=0.001, doubtful=True)
+    miss_line = np.column_stack([np.zeros(7), np.linspace(-0.07, -0.04, 7), np.zeros(7)])
+    return [
+        TouchOutcome(0, "contact", POINTS[2] + [0, 0, 0.02], down, position_m=POINTS[2], normal=-down),
+        TouchOutcome(1, "contact", POINTS[0] + [0.02, 0, 0], np.array([-1.0, 0, 0]), position_m=POINTS[0],
+                     normal=np.array([1.0, 0, 0]), quality=doubtful),
+        TouchOutcome(2, "miss", miss_line[0], np.array([0.0, 1.0, 0.0]), free_space_m=miss_line),
+        TouchOutcome(3, "no_normal", PAD + [0, 0, -0.02], -down, side_m=PAD),
+        TouchOutcome(4, "contact", POINTS[1] + [0, 0.02, 0], np.array([0.0, -1.0, 0.0]), position_m=POINTS[1],
+                     normal=np.array([0.0, 1.0, 0.0])),
+    ]
+
+
+def test_rebuilt_evidence_gives_back_the_field_the_touches_built_and_can_leave_the_misses_out():
+    records = _records()
+    live = SurfaceEvidence(GPIS(bounds=BOUNDS), -0.009, 0.005, -0.0065, 0.004)
+    live.add_contact(records[0].position_m, records[0].normal)
+    live.add_contact(records[1].position_m, records[1].normal, normal_noise=0.5)
+    live.add_free_space(records[2].free_space_m)
+    live.add_side_press(PAD)
+    live.add_contact(records[4].position_m, records[4].normal)
+    again = live.rebuilt(records, doubtful_normal_noise=0.5)
+    assert again.gpis is not live.gpis and again.gpis.n_rows == live.gpis.n_rows == 3 * 4 + 7 + 1
+    np.testing.assert_allclose(again.gpis.mean(_queries()), live.gpis.mean(_queries()), rtol=0, atol=1e-12)
+    no_misses = live.rebuilt(records, doubtful_normal_noise=0.5, misses=False)
+    assert no_misses.gpis.n_rows == live.gpis.n_rows - 7
+    direct = SurfaceEvidence(GPIS(bounds=BOUNDS), -0.009, 0.005, -0.0065, 0.004)
+    for i in (0, 1, 4):
+        direct.add_contact(records[i].position_m, records[i].normal, normal_noise=0.5 if i == 1 else None)
+        if i == 1:
+            direct.add_side_press(PAD)
+    np.testing.assert_allclose(no_misses.gpis.mean(_queries()), direct.gpis.mean(_queries()), rtol=0, atol=1e-12)
+
+
+def test_an_unfitted_copy_has_the_settings_and_none_of_the_observations():
+    gp = GPIS(bounds=BOUNDS, noise=1e-3, normal_noise=0.3, trend=2.0, opposing_normal_noise=0.1,
+              opposing_radius_m=0.02).fit(POINTS, POINTS / np.linalg.norm(POINTS, axis=1, keepdims=True))
+    copy = gp.unfitted_copy()
+    assert copy.n_rows == 0 and copy.n_contacts == 0
+    copy.fit(POINTS, POINTS / np.linalg.norm(POINTS, axis=1, keepdims=True))
+    np.testing.assert_allclose(copy.mean(_queries()), gp.mean(_queries()), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(copy.variance(_queries()), gp.variance(_queries()), rtol=0, atol=1e-15)
+
+
+def test_a_misss_row_where_the_field_is_already_free_pulls_the_surface_out_and_the_gate_leaves_it_out():
+    """The miss of :func:`_records` ran towards the sphere's -y side, where nothing was touched. At
+    its far points the field of the other touches already lies below the -9 mm its rows ask for, so
+    the loop's rows raise the field there (pull the surface out towards the line); offered through
+    the gate instead, those points get no row and the points the field puts nearer get one each."""
+    from explorer.evidence import with_swept_free_space
+
+    records = _records()
+    template = SurfaceEvidence(GPIS(bounds=BOUNDS), -0.009, 0.005, -0.0065, 0.004)
+    with_rows = template.rebuilt(records, 0.5).gpis
+    without = template.rebuilt(records, 0.5, misses=False).gpis
+    line = records[2].free_space_m
+    free_already = without.mean(line) < -0.009
+    assert 0 < free_already.sum() < len(line)
+    pulled = with_rows.mean(line[free_already]) - without.mean(line[free_already])
+    assert np.all(pulled > 0)   # raised towards -9 mm: the surface pulled out towards the line
+    gated, rows = with_swept_free_space(without, records, -0.009, 0.002, misses=True)
+    swept_rows = with_swept_free_space(without, records, -0.009, 0.002)[1]
+    assert rows - swept_rows == np.count_nonzero(~free_already)
+    moved_by_gate = np.abs(gated.mean(line[free_already]) - without.mean(line[free_already]))
+    assert np.all(moved_by_gate < pulled)

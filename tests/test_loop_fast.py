@@ -271,6 +271,45 @@ def test_the_reconstruction_holds_the_swept_line_firmer_than_the_loops_free_spac
     assert off is loop.gpis and off_rows == 0
 
 
+def test_the_reconstruction_offers_the_misses_free_space_through_the_gate_instead_of_the_loops_rows():
+    """The two contacts of the tests above and a miss beside the sphere. The loop's field holds the
+    miss's rows; the reconstruction (``reconstruction_gates_misses``) is that field rebuilt from the
+    records without them, plus the gated rows of the swept lines and of the miss. Sessions recorded
+    before the setting mesh the loop's field plus the swept rows, as they did."""
+    from explorer.evidence import with_swept_free_space
+    from explorer.touch import TouchOutcome
+
+    first, second = _a_probe_past_the_guessed_surface()
+    line = np.column_stack([np.zeros(6), np.linspace(-0.058, -0.033, 6), np.zeros(6)])
+    miss = TouchOutcome(2, "miss", line[0], np.array([0.0, 1.0, 0.0]), free_space_m=line, strategy="scripted")
+    _, rig = sphere_rig(RADIUS_M)
+    config = LoopConfig(touches=3)
+    assert config.reconstruction_gates_misses
+    loop = ExplorationLoop(rig, FakePlanner(rig.positioner), ScriptedStrategy([]), GPIS(bounds=rig.prior.bounds()),
+                           config)
+    loop.restore([first, second, miss])
+    assert loop.gpis.n_rows == 8 + len(line)
+    field, rows = config.reconstruction_field(loop.gpis, loop.records)
+    assert loop.gpis.n_rows == 8 + len(line)   # the loop's field is left as it is
+    contacts_only = config.evidence(GPIS(bounds=rig.prior.bounds()))
+    for record in (first, second):
+        contacts_only.add_contact(record.position_m, record.normal)
+    direct, direct_rows = with_swept_free_space(contacts_only.gpis, loop.records, config.free_space_value,
+                                                config.reconstruction_free_space_noise, misses=True)
+    assert rows == direct_rows and field.n_rows == 8 + rows
+    points = np.random.default_rng(2).uniform(*loop.gpis.bounds, size=(100, 3))
+    np.testing.assert_allclose(field.mean(points), direct.mean(points), rtol=0, atol=1e-12)
+    legacy_config = replace(config, reconstruction_gates_misses=False)
+    legacy, legacy_rows = legacy_config.reconstruction_field(loop.gpis, loop.records)
+    same, same_rows = with_swept_free_space(loop.gpis, loop.records, config.free_space_value,
+                                            config.reconstruction_free_space_noise)
+    assert legacy_rows == same_rows and legacy.n_rows == 8 + len(line) + same_rows
+    np.testing.assert_allclose(legacy.mean(points), same.mean(points), rtol=0, atol=1e-12)
+    # the contacts' field has the whole line 25-55 mm outside; the loop's rows hold it near -9 mm
+    assert np.all(field.mean(line) < config.free_space_value - 0.01)
+    assert np.all(legacy.mean(line) > field.mean(line) + 0.01)
+
+
 def test_a_surface_at_the_very_end_of_the_line_is_still_pressed():
     """The sphere lies 0.4 mm before the end of the touch's depth: the press needs the planner's
     reserve beyond it. Without one (as before the reserve) the pad stops short of the press force

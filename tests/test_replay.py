@@ -276,6 +276,10 @@ def test_a_press_that_let_go_is_replayed_as_no_contact_and_no_side_press(sphere_
     del legacy["configuration"]["loop"]["reconstruction_free_space_noise"]
     (old / "metadata.json").write_text(json.dumps(legacy))
     assert SessionReplay(old).loop_config.reconstruction_free_space_noise is None   # meshed as it was then
+    assert before.loop_config.reconstruction_gates_misses
+    del legacy["configuration"]["loop"]["reconstruction_gates_misses"]
+    (old / "metadata.json").write_text(json.dumps(legacy))
+    assert not SessionReplay(old).loop_config.reconstruction_gates_misses   # with the loop's miss rows
 
 
 def test_a_touch_recorded_as_pushed_off_its_line_is_counted_as_such(sphere_run, recorded_replay, tmp_path):
