@@ -17,7 +17,7 @@ Public API:
 * :func:`reconstruction_errors` (what ``metrics.json`` reports), :func:`load_config`;
 * contact quality (issue 11): :class:`ContactPipeline`, :class:`ContactQuality`, :class:`DoubtRule`,
   :func:`pad_load`, the presses that give no contact (:class:`NoContactMeasured`,
-  :class:`PressReleased`), and against a known truth :func:`contact_truth`.
+  :class:`PadSideContact`, :class:`PressReleased`), and against a known truth :func:`contact_truth`.
 
 Every name is imported on first use (module ``__getattr__``), so ``import explorer`` imports
 neither torch nor pybullet.
@@ -68,6 +68,7 @@ _LAZY = {
     "ContactQuality": "explorer.contact",
     "DoubtRule": "explorer.contact",
     "NoContactMeasured": "explorer.contact",
+    "PadSideContact": "explorer.contact",
     "PressReleased": "explorer.contact",
     "pad_load": "explorer.contact",
     "contact_truth": "explorer.contact_truth",

@@ -40,6 +40,11 @@ class NoContactMeasured(ValueError):
     """The press's readings give no contact: the orientation never settled, or the pressure saturated."""
 
 
+class PadSideContact(NoContactMeasured):
+    """The press never reached the side-contact force with the pad hardly turned
+    (:meth:`DoubtRule.side_contact`): the object met the pad's side or corner, not its face."""
+
+
 class PressReleased(NoContactMeasured):
     """The pad had let go before its orientation settled: the settled force lies below the contact
     detector's end threshold, so by the detector's own rule the contact was over. Neither the pad's
@@ -357,7 +362,7 @@ class ContactPipeline:
         ------
         NoContactMeasured
             The orientation never settled (not even by ``loose_settling``), the pressure saturated,
-            or (``DoubtRule.side_force_n``) the press met the pad's side.
+            or (``DoubtRule.side_force_n``, :class:`PadSideContact`) the press met the pad's side.
         PressReleased
             (``release_threshold_pa``) The pad had let go before its orientation settled (tested
             after the side test: a light press on the pad's side that let go stays one).
@@ -391,7 +396,7 @@ class ContactPipeline:
                                  peak_force_n=self.force_estimate_n(peak_rise_pa), loosely_settled=loose)
         quality = replace(quality, doubtful=self.doubt.doubtful(quality))
         if self.doubt.side_contact(quality):
-            raise NoContactMeasured(f"the press reached {quality.peak_force_n:.2f} N with the pad turned "
+            raise PadSideContact(f"the press reached {quality.peak_force_n:.2f} N with the pad turned "
                                     f"{np.degrees(load.tilt_rad):.1f} deg: the pad's side or corner, not its face")
         # After the side test: a light press that let go is still one on the pad's side, whose place the GPIS uses.
         if self.release_threshold_pa is not None:

@@ -30,8 +30,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from explorer.config import ExplorationConfig
-from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, PressReleased,
-                              wants_realign)
+from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame,
+                              PadSideContact, PressReleased, wants_realign)
 from explorer.evidence import SurfaceEvidence, with_swept_free_space
 from explorer.motion_time import MotionTimeEstimator
 from explorer.planner import ApproachPlan, ApproachPlanner
@@ -189,6 +189,14 @@ class LoopConfig:
         to this force and measured again from the readings of that second press: the pad reaches
         the rim of its face at a tilt of about ``force x half width / spring stiffness`` (26 deg at
         1 N), so more force turns it flat onto steeper slopes (issue 11). 0: no second press.
+    repress_side_contacts : bool
+        A press that looks like one on the pad's side after the first press (below
+        ``side_contact_force_n`` with the pad turned less than ``side_contact_tilt_rad``) is pressed
+        on too, and the side test asks the second press. On a soft pad the first press's
+        ``press_depth_m`` runs out before the force where the pad met a face with one corner (the
+        hardware-like pad: 0.76 mm/N flat, about four times that on one corner), and 20-40 of 100
+        touches on the cereal box and the flat plate were thrown away as side presses
+        (BENCHMARKS.md, "Presses that ran out of depth on a soft pad"). False: the loop before.
     loose_settle_deviation_rad : float or None
         A press whose orientation never settles (no window of the settling test within its 0.5 deg)
         is measured again with this looser bound, from the mean of its steadiest window, as a doubtful contact
@@ -220,6 +228,7 @@ class LoopConfig:
     doubt_approach_angle_rad: float = DoubtRule.approach_angle_rad
     doubtful_normal_noise: float = 0.5
     repress_force_n: float = 3.0
+    repress_side_contacts: bool = True
     side_contact_force_n: float = 1.3
     side_contact_tilt_rad: float = float(np.radians(12.0))
     drop_released_presses: bool = True
@@ -476,7 +485,7 @@ class ExplorationLoop:
             press = self.robot.guarded_move(remaining, stop=lambda: self._pressed(start_pad),
                                             speed_rad_s=press_speed)
             self.robot.hold(cfg.settle_timeout_s, stop=self._settled_now)
-            if self._doubtful_now(record) and cfg.repress_force_n > 0:
+            if cfg.repress_force_n > 0 and self._worth_pressing_on(record):
                 record.repress_t_s = self._repress(remaining[min(press.waypoint_index, len(remaining) - 1):],
                                                    press_speed)
             record = self._contact_record(record)
@@ -707,12 +716,15 @@ class ExplorationLoop:
         record.t_s = measured.world.t_s
         return record
 
-    def _doubtful_now(self, record: TouchOutcome) -> bool:
-        """The contact as it stands after the first press is doubtful (same pipeline, not recorded)."""
+    def _worth_pressing_on(self, record: TouchOutcome) -> bool:
+        """The contact as it stands after the first press (same pipeline, not recorded) is doubtful,
+        or (``repress_side_contacts``) looks like a press on the pad's side."""
         try:
             measured = self.contact_pipeline.measure(self._contact_readings, self._baseline_pa,
                                                      self.robot.joint_positions(),
                                                      ObjectFrame.of_positioner(self.positioner), record.approach_dir)
+        except PadSideContact:
+            return self.config.repress_side_contacts
         except NoContactMeasured:
             return False
         return measured.quality.doubtful
