@@ -337,6 +337,30 @@ def test_a_surface_at_the_very_end_of_the_line_is_still_pressed():
                         GPIS(bounds=rig.prior.bounds()), loop_config)
 
 
+def test_a_press_that_looks_like_one_on_the_pads_side_is_pressed_on_and_kept_if_it_reaches_the_force():
+    """The side-contact force set between the press force and the second press's: the first press
+    of each head-on touch ends below it (a soft pad whose depth ran out), so the side test would
+    throw it away. Pressed on, the second press reaches it and the contact is kept, measured from
+    that press; without ``repress_side_contacts`` both are side presses, as before."""
+    def run(repress_side_contacts):
+        world, rig = sphere_rig(RADIUS_M)
+        config = LoopConfig(touches=2, proposal_rounds=1, press_force_n=1.5, repress_force_n=3.0,
+                            side_contact_force_n=2.2, side_contact_tilt_rad=np.pi,
+                            repress_side_contacts=repress_side_contacts)
+        loop = ExplorationLoop(rig, FakePlanner(rig.positioner), ScriptedStrategy(scripted_touches()[:2]),
+                               GPIS(bounds=rig.prior.bounds()), config)
+        return loop.run()
+
+    pressed_on, thrown_away = run(True), run(False)
+    assert [r.kind for r in thrown_away] == ["no_normal", "no_normal"]
+    assert all(r.repress_t_s is None for r in thrown_away)
+    assert [r.kind for r in pressed_on] == ["contact", "contact"]
+    for record in pressed_on:
+        assert record.repress_t_s is not None and record.contact.t_s > record.repress_t_s
+        assert record.quality.peak_force_n >= 2.2
+        assert abs(np.linalg.norm(record.position_m) - RADIUS_M) < 1e-9
+
+
 def test_a_press_on_the_pads_side_tells_the_gpis_where_the_pad_was_and_a_resume_keeps_it(tmp_path):
     """A press that never reaches the side-press force (here set out of reach) gives no normal; the
     pad-face centre is kept (``side_m``: in the recording, after a resume) and becomes one value row
