@@ -118,8 +118,8 @@ class TouchOutcome:
         The detector's free-pad pressure at the contact start, pascals.
     quality : explorer.contact.ContactQuality or None
     repress_t_s : float or None
-        A doubtful contact was pressed on from this time (``LoopConfig.repress_force_n``): it is
-        measured from the press's readings after it.
+        A doubtful contact, or a press that looked like one on the pad's side, was pressed on from
+        this time (``LoopConfig.repress_force_n``): it is measured from the press's readings after it.
     side_m : (3,) float or None
         A press on the pad's side (kind ``no_normal``): the pad-face centre at its end, object
         frame, metres. The surface met lies within about the pad's half diagonal of it.
