@@ -146,4 +146,3 @@ def with_swept_free_space(gpis: GPIS, records, free_space_value: float, free_spa
     SurfaceEvidence(field, free_space_value, free_space_noise).add_swept(
         np.vstack(lines) if lines else np.zeros((0, 3)))
     return field, field.n_rows - rows
-
