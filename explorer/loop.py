@@ -50,6 +50,9 @@ from sensor.reading import Reading
 RECOVERY_SPEED_RAD_S = 0.2
 #: ... and how far inside its software limits each joint is first brought, radians.
 RECOVERY_LIMIT_CLEARANCE_RAD = 0.05
+#: A pad face met on one corner carries the press on one of the four contact points it has lying
+#: flat (PyBullet's pad; a real pad's corner is softer still): this many times its flat compliance.
+ONE_CORNER_COMPLIANCE_FACTOR = 4.0
 
 
 def back_out(robot, toward_q: np.ndarray, lower_rad: np.ndarray, upper_rad: np.ndarray,
@@ -189,14 +192,17 @@ class LoopConfig:
         to this force and measured again from the readings of that second press: the pad reaches
         the rim of its face at a tilt of about ``force x half width / spring stiffness`` (26 deg at
         1 N), so more force turns it flat onto steeper slopes (issue 11). 0: no second press.
-    repress_side_contacts : bool
+    repress_side_contacts : bool or None
         A press that looks like one on the pad's side after the first press (below
         ``side_contact_force_n`` with the pad turned less than ``side_contact_tilt_rad``) is pressed
         on too, and the side test asks the second press. On a soft pad the first press's
-        ``press_depth_m`` runs out before the force where the pad met a face with one corner (the
+        ``press_depth_m`` runs out before that force where the pad met a face with one corner (the
         hardware-like pad: 0.76 mm/N flat, about four times that on one corner), and 20-40 of 100
-        touches on the cereal box and the flat plate were thrown away as side presses
-        (BENCHMARKS.md, "Presses that ran out of depth on a soft pad"). False: the loop before.
+        touches on the cereal box and the flat plate were thrown away as side presses. On a stiff
+        pad such a press is a true side press, and pressing on makes it a contact in the wrong
+        place (BENCHMARKS.md, "Presses that ran out of depth on a soft pad"). None (default): only
+        where the depth is too short for the pad's compliance (:meth:`presses_on_side_contacts`).
+        False: the loop before.
     loose_settle_deviation_rad : float or None
         A press whose orientation never settles (no window of the settling test within its 0.5 deg)
         is measured again with this looser bound, from the mean of its steadiest window, as a doubtful contact
@@ -228,7 +234,7 @@ class LoopConfig:
     doubt_approach_angle_rad: float = DoubtRule.approach_angle_rad
     doubtful_normal_noise: float = 0.5
     repress_force_n: float = 3.0
-    repress_side_contacts: bool = True
+    repress_side_contacts: bool | None = None
     side_contact_force_n: float = 1.3
     side_contact_tilt_rad: float = float(np.radians(12.0))
     drop_released_presses: bool = True
@@ -260,6 +266,16 @@ class LoopConfig:
             gpis = self.evidence(gpis).rebuilt(records, self.doubtful_normal_noise, misses=False).gpis
         return with_swept_free_space(gpis, records, self.free_space_value, noise,
                                      misses=self.reconstruction_gates_misses)
+
+    def presses_on_side_contacts(self, pad_compliance_m_per_n: float) -> bool:
+        """Whether a press that looks like one on the pad's side is pressed on: as set, or (None)
+        where ``press_depth_m`` cannot bring a pad met on one corner to ``side_contact_force_n``,
+        the one corner carrying the load of the four a flat face has
+        (``ONE_CORNER_COMPLIANCE_FACTOR`` x the flat ``pad_compliance_m_per_n``, m/N)."""
+        if self.repress_side_contacts is not None:
+            return self.repress_side_contacts
+        corner_depth_m = self.side_contact_force_n * ONE_CORNER_COMPLIANCE_FACTOR * pad_compliance_m_per_n
+        return self.press_depth_m < corner_depth_m
 
     def evidence(self, gpis: GPIS) -> SurfaceEvidence:
         """What touches add to ``gpis`` under these settings."""
@@ -341,6 +357,7 @@ class ExplorationLoop:
                                                 if config.drop_released_presses else None,
                                                 loose_settling=config.loose_settling(settling))
         self.evidence = config.evidence(gpis)
+        self._repress_side_contacts = config.presses_on_side_contacts(rig.pad.compliance_m_per_n)
         self.state = ExplorationState(rig.prior, motion=MotionTimeEstimator(planner, rig.positioner))
         self.records: list[TouchOutcome] = []
         self.times = PhaseTimes()
@@ -724,7 +741,7 @@ class ExplorationLoop:
                                                      self.robot.joint_positions(),
                                                      ObjectFrame.of_positioner(self.positioner), record.approach_dir)
         except PadSideContact:
-            return self.config.repress_side_contacts
+            return self._repress_side_contacts
         except NoContactMeasured:
             return False
         return measured.quality.doubtful

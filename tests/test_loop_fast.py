@@ -361,6 +361,21 @@ def test_a_press_that_looks_like_one_on_the_pads_side_is_pressed_on_and_kept_if_
         assert abs(np.linalg.norm(record.position_m) - RADIUS_M) < 1e-9
 
 
+def test_side_presses_are_pressed_on_only_where_the_depth_is_too_short_for_the_pads_compliance():
+    """1.3 N on one corner of a pad that sinks c m/N flat takes 1.3 x 4 x c of travel: the 2 mm
+    depth covers the default simulated pad (0.136 mm/N: 0.71 mm) and the nominal hardware pad (0.33
+    mm/N: 1.7 mm), not the hardware-like one (0.76 mm/N: 4.0 mm). An explicit setting wins."""
+    config = LoopConfig()
+    assert config.repress_side_contacts is None and config.press_depth_m == 0.002
+    assert not config.presses_on_side_contacts(0.136e-3)
+    assert not config.presses_on_side_contacts(0.33e-3)
+    assert config.presses_on_side_contacts(0.76e-3)
+    assert config.presses_on_side_contacts(0.40e-3) and not config.presses_on_side_contacts(0.38e-3)  # 2 mm / 5.2 N
+    assert replace(config, press_depth_m=0.005).presses_on_side_contacts(0.76e-3) is False
+    assert replace(config, repress_side_contacts=True).presses_on_side_contacts(0.0)
+    assert not replace(config, repress_side_contacts=False).presses_on_side_contacts(1.0)
+
+
 def test_a_press_on_the_pads_side_tells_the_gpis_where_the_pad_was_and_a_resume_keeps_it(tmp_path):
     """A press that never reaches the side-press force (here set out of reach) gives no normal; the
     pad-face centre is kept (``side_m``: in the recording, after a resume) and becomes one value row
