@@ -494,20 +494,16 @@ class SessionReplay:
                     bounds=None if self.prior is None else self.prior.bounds(), **options)
         evidence = self._loop_config(settings).evidence(gpis)
         for touch in touches:
-            if touch.kind == "contact":
-                try:
-                    doubtful = getattr(touch.quality, "doubtful", False)
-                    evidence.add_contact(touch.position_m, touch.normal,
-                                         self.loop_config.doubtful_normal_noise if doubtful else None)
-                except ValueError as err:  # outside the prior box (teleop keeps such contacts unmodelled)
-                    touch.kind = "not_modelled"
-                    notes.append(f"touch {touch.index}: not modelled: {err}")
-            elif touch.kind == "miss" and not self.teleop:  # a teleop path is not a planned line
+            if touch.kind == "miss":
+                if self.teleop:  # a teleop path is not a planned line
+                    continue
                 if touch.free_space_m is None:
                     touch.free_space_m = evidence.inside_bounds(self._swept_line(touch))
-                evidence.add_free_space(touch.free_space_m)
-            elif touch.kind == "no_normal" and touch.side_m is not None:
-                evidence.add_side_press(touch.side_m)
+            try:
+                evidence.add_touch(touch, self.loop_config.doubtful_normal_noise)
+            except ValueError as err:  # a contact outside the prior box (teleop keeps such contacts unmodelled)
+                touch.kind = "not_modelled"
+                notes.append(f"touch {touch.index}: not modelled: {err}")
         return gpis
 
     def _loop_config(self, settings: ReplaySettings) -> LoopConfig:
