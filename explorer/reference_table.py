@@ -9,10 +9,12 @@ column of a row is its own kind's: the default profile for simulation rows, ``ha
 calibrated (as a lab would run it) for real-robot rows.
 
 Runs are ordinary sweep runs (:mod:`explorer.sweep`: one directory per group of robot, profile
-and calibration, resumable, run on one process pool). *Without normals* is the reference's
-classic baseline from the same contacts: the GPIS refitted on the run's contact positions with
-one inside and 14 outside samples instead of normals (:func:`classic_refit`), meshed and scored
-alike; *with normals* is the run's own reconstruction.
+and calibration, resumable, run on one process pool). *With normals* is the run's own
+reconstruction. *Without normals* is, as the reference ran it, a second exploration of the main
+column driven and scored by the classic GPIS (one inside and 14 outside samples instead of normals;
+a ``nonormals`` sweep run). Every cell also gets the classic GPIS refitted on the with-normals
+run's own contacts (:func:`classic_refit`): the value of the normals alone, without the
+exploration they steered.
 """
 from __future__ import annotations
 
@@ -58,6 +60,10 @@ class ReferenceRow:
     def main_column(self) -> str:
         return "datasheet-noise" if self.kind == "simulation" else CALIBRATED
 
+    def main_column_among(self, cols) -> str:
+        """The main column, or uncalibrated ``hardware-like`` where the calibration is left out."""
+        return self.main_column if self.main_column in cols else "hardware-like"
+
 
 ROWS: tuple[ReferenceRow, ...] = (
     ReferenceRow("box", "box", "simulation", "armar3", 2.7, 5.2),
@@ -93,11 +99,12 @@ def group_dir(out_dir: Path, robot: str, column: str) -> Path:
 
 
 def plan_jobs(out_dir: Path, rows, cols, touches: int, seed: int, calibrations: dict, eval_every: int,
-              mesh_resolution: int) -> tuple[list[RunJob], dict]:
-    """The runs still to do (main columns first) and where every cell's run lives.
+              mesh_resolution: int, explore_without_normals: bool = True) -> tuple[list[RunJob], dict]:
+    """The runs still to do (main columns first) and where every cell's runs live.
 
     ``calibrations`` maps a robot to its ``joint_calibration.json`` (for the calibrated column).
-    Returns (jobs, cells) with cells[(row.object, column)] = run directory.
+    ``explore_without_normals``: also explore each row's main column without normals.
+    Returns (jobs, cells) with cells[(row.object, column, use_normals)] = run directory.
     """
     cells, order = {}, []
     for column in cols:
@@ -109,17 +116,21 @@ def plan_jobs(out_dir: Path, rows, cols, touches: int, seed: int, calibrations: 
                     continue
                 calibration = str(calibrations[robot])
             config = SweepConfig(objects=tuple(r.object for r in members), strategies=("variance",), seeds=(seed,),
-                                 touches=touches, robot=robot, eval_every=eval_every, mesh_resolution=mesh_resolution,
+                                 normals=(True, False), touches=touches, robot=robot, eval_every=eval_every,
+                                 mesh_resolution=mesh_resolution,
                                  profile="hardware-like" if column == CALIBRATED else column, calibration=calibration)
             directory = group_dir(out_dir, robot, column)
             prepare_sweep_dir(directory, config)
             for run in plan_runs(config):
                 row = next(r for r in members if r.object == run.object)
+                main = column == row.main_column_among(cols)
+                if not run.use_normals and not (explore_without_normals and main):
+                    continue
                 path = run_dir(directory, run)
-                cells[(row.object, column)] = path
+                cells[(row.object, column, run.use_normals)] = path
                 if not is_complete(path):
-                    order.append((_priority(row, column), RunJob(f"{robot}-{column}-{run.name}",
-                                                                 run.settings(config), path)))
+                    order.append((_priority(main, column, run.use_normals),
+                                  RunJob(f"{robot}-{column}-{run.name}", run.settings(config), path)))
     jobs = [job for _, job in sorted(order, key=lambda item: item[0])]
     return jobs, cells
 
@@ -133,12 +144,12 @@ def clear_unfinished(jobs) -> None:
             shutil.rmtree(job.out_dir)
 
 
-def _priority(row: ReferenceRow, column: str) -> int:
-    """Run order: each row's main column, then hardware-like uncalibrated (the calibration's
-    before), the default profile, the rest."""
-    if column == row.main_column:
-        return 0
-    return {"hardware-like": 1, "datasheet-noise": 2}.get(column, 3)
+def _priority(main: bool, column: str, use_normals: bool) -> int:
+    """Run order: each row's main column with normals, then without, then hardware-like
+    uncalibrated (the calibration's before), the default profile, the rest."""
+    if main:
+        return 0 if use_normals else 1
+    return {"hardware-like": 2, "datasheet-noise": 3}.get(column, 4)
 
 
 def read_contacts(run_directory: Path) -> tuple[np.ndarray, np.ndarray]:
@@ -180,14 +191,15 @@ def classic_refit(run_directory: Path, resolution: int) -> dict:
 
 
 def collect(cells: dict, rows, cols, resolution: int) -> list[dict]:
-    """One record per cell: the run's figures with normals, the classic refit's without."""
+    """One record per cell: the run's figures with normals, the exploration's without normals
+    (main columns; None where it is not run or not finished) and the classic refit of the run's
+    own contacts."""
     records = []
     for row in rows:
         for column in cols:
-            path = cells.get((row.object, column))
-            main = row.main_column if row.main_column in cols else "hardware-like"  # calibration left out
+            path = cells.get((row.object, column, True))
             record = dict(row=row.label, object=row.object, kind=row.kind, robot=row.robot, column=column,
-                          main=column == main, reference_with_mm=row.reference_with_mm,
+                          main=column == row.main_column_among(cols), reference_with_mm=row.reference_with_mm,
                           reference_without_mm=row.reference_without_mm, run=None if path is None else str(path))
             metrics = None if path is None else read_metrics(path)
             if metrics is None or not metrics.get("completed"):
@@ -195,10 +207,17 @@ def collect(cells: dict, rows, cols, resolution: int) -> list[dict]:
                 records.append(record)
                 continue
             classic = classic_refit(path, resolution)
+            without_path = cells.get((row.object, column, False))
+            without = None if without_path is None else read_metrics(without_path)
+            if without is not None and not without.get("completed"):
+                without = None
             record.update(touches=metrics.get("touches"), contacts=metrics.get("contacts"),
                           with_normals_mm=metrics.get("position_rmse_mm"),
                           with_normals_normal_deg=metrics.get("normal_rmse_deg"),
-                          without_normals_mm=classic.get("position_rmse_mm"),
+                          without_normals_mm=None if without is None else without.get("position_rmse_mm"),
+                          without_normals_contacts=None if without is None else without.get("contacts"),
+                          without_normals_run=None if without_path is None else str(without_path),
+                          same_contacts_without_normals_mm=classic.get("position_rmse_mm"),
                           chamfer_l1_mm=metrics.get("chamfer_l1_mm"), fscore_2mm=metrics.get("fscore_2mm"),
                           contact_position_error_rms_mm=metrics.get("contact_position_error_rms_mm"),
                           contact_normal_error_mean_deg=metrics.get("contact_normal_error_mean_deg"),
@@ -212,24 +231,30 @@ def _mm(value) -> str:
 
 
 def format_markdown(records: list[dict], cols, description: str) -> str:
-    """Two tables: the like-for-like rows (main column) and every row under every column."""
+    """Two tables: the like-for-like rows (main column; without normals = explored without them)
+    and every row under every column (without normals = the classic refit of the same contacts)."""
     lines = [description, "",
-             "| row | kind | robot | object | column | touches | contacts | with normals (mm) | without normals (mm) "
+             "| row | kind | robot | object | column | touches | contacts with / without normals "
+             "| with normals (mm) | without normals, explored (mm) | classic refit of the same contacts (mm) "
              "| reference with / without (mm) | with <= reference | with < without |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in (r for r in records if r["main"]):
         if "missing" in r:
             lines.append(f"| {r['row']} | {r['kind']} | {r['robot']} | {r['object']} | {r['column']} | - | - | "
-                         f"{r['missing']} | - | {_mm(r['reference_with_mm'])} / {_mm(r['reference_without_mm'])} | - | - |")
+                         f"{r['missing']} | - | - | {_mm(r['reference_with_mm'])} / {_mm(r['reference_without_mm'])} "
+                         "| - | - |")
             continue
         meets = "-" if r["reference_with_mm"] is None or r["with_normals_mm"] is None else \
             ("yes" if r["with_normals_mm"] <= r["reference_with_mm"] else "no")
-        better = "-" if r["without_normals_mm"] is None or r["with_normals_mm"] is None else \
+        better = "-" if r.get("without_normals_mm") is None or r["with_normals_mm"] is None else \
             ("yes" if r["with_normals_mm"] < r["without_normals_mm"] else "no")
+        without_contacts = "-" if r.get("without_normals_contacts") is None else r["without_normals_contacts"]
         lines.append(f"| {r['row']} | {r['kind']} | {r['robot']} | {r['object']} | {r['column']} | {r['touches']} | "
-                     f"{r['contacts']} | {_mm(r['with_normals_mm'])} | {_mm(r['without_normals_mm'])} | "
+                     f"{r['contacts']} / {without_contacts} | {_mm(r['with_normals_mm'])} | "
+                     f"{_mm(r.get('without_normals_mm'))} | {_mm(r['same_contacts_without_normals_mm'])} | "
                      f"{_mm(r['reference_with_mm'])} / {_mm(r['reference_without_mm'])} | {meets} | {better} |")
-    lines += ["", "Every row under every column (position RMSE, mm: with normals / without normals):", "",
+    lines += ["", "Every row under every column (position RMSE, mm: with normals / the classic refit of the "
+              "same contacts):", "",
               "| row | robot | " + " | ".join(cols) + " |", "|---|---|" + "---|" * len(cols)]
     for label in dict.fromkeys(r["row"] for r in records):
         cells = {r["column"]: r for r in records if r["row"] == label}
@@ -240,6 +265,6 @@ def format_markdown(records: list[dict], cols, description: str) -> str:
             if r is None or "missing" in r:
                 values.append(r["missing"] if r else "not run")
             else:
-                values.append(f"{_mm(r['with_normals_mm'])} / {_mm(r['without_normals_mm'])}")
+                values.append(f"{_mm(r['with_normals_mm'])} / {_mm(r['same_contacts_without_normals_mm'])}")
         lines.append(f"| {label} | {first['robot']} | " + " | ".join(values) + " |")
     return "\n".join(lines) + "\n"

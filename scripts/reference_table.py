@@ -5,9 +5,11 @@ real-robot rows (ground coffee = coffee_can, Cheez-It = cereal_box, flat surface
 bowl on ARMAR-III) under ``hardware-like`` with the arm calibrated from ball touches
 (``scripts.calibrate_joints``, run first for each robot and seed). Every row also runs under each
 ``--profiles`` entry and, for hardware-like, uncalibrated, so the cost of each error source can be
-read off. With normals: the run's own reconstruction; without normals: the reference's classic
-GPIS refitted on the same contacts (``explorer/reference_table.py``). Runs are sweep runs on one
-process pool, resumable: run the command again with the same --out to finish what is missing.
+read off. With normals: the run's own reconstruction; without normals, as the reference ran it: a
+second exploration of the row's main column driven by the classic GPIS; beside both, the classic
+GPIS refitted on the with-normals run's contacts (``explorer/reference_table.py``). Runs are sweep
+runs on one process pool, resumable: run the command again with the same --out to finish what is
+missing.
 Writes ``reference_table.md`` and ``reference_table.json`` into --out.
 
     python -m scripts.reference_table --out DIR                 # 8 rows x 4 columns, 100 touches
@@ -40,6 +42,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--calibration-touches", type=int_at_least(12), default=36,
                         help="ball touches of each robot's calibration (default 36)")
     parser.add_argument("--no-calibration", action="store_true", help="leave out the calibrated hardware-like column")
+    parser.add_argument("--refit-only", action="store_true",
+                        help="explore with normals only; without normals is then only the classic refit of the "
+                             "same contacts (the like-for-like column stays empty)")
     parser.add_argument("--eval-every", type=int_at_least(0), default=0, help="touches between error evaluations")
     parser.add_argument("--mesh-resolution", type=int_at_least(8), default=96)
     parser.add_argument("--table-only", action="store_true",
@@ -85,7 +90,7 @@ def main(argv: list[str] | None = None) -> int:
     from explorer.sweep.execution import run_in_pool
 
     jobs, cells = plan_jobs(args.out, rows, cols, args.touches, args.seed, calibrations, args.eval_every,
-                            args.mesh_resolution)
+                            args.mesh_resolution, explore_without_normals=not args.refit_only)
     if args.table_only:
         jobs = []
     clear_unfinished(jobs)
@@ -103,6 +108,7 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         records = collect(cells, rows, cols, args.mesh_resolution)
         description = (f"Reference table like for like: {len(rows)} rows x {len(cols)} columns, variance strategy, "
+                       f"{'no exploration without normals, ' if args.refit_only else ''}"
                        f"{args.touches} touches, seed {args.seed}, mesh resolution {args.mesh_resolution}; "
                        f"calibration: {', '.join(f'{k}: {v}' for k, v in calibrations.items()) or 'none'}.")
         (args.out / "reference_table.md").write_text(format_markdown(records, cols, description))
