@@ -201,6 +201,28 @@ def test_a_directory_swept_with_other_shared_settings_is_refused(tmp_path):
                                                 touches=20))
 
 
+def test_a_sweep_moved_with_its_calibration_is_the_same_sweep_and_another_calibration_is_not(tmp_path):
+    import json
+    import shutil
+
+    def calibrated(directory, offset_deg):
+        path = directory / "joint_calibration.json"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps({"robot": "armar6", "profile": "hardware-like", "seed": 0,
+                                    "fitted_offset_deg": [offset_deg] * 8}))
+        return SweepConfig(objects=("sphere",), strategies=("random",), seeds=(0,), robot="armar6",
+                           profile="hardware-like", calibration=str(path))
+
+    first = tmp_path / "first"
+    prepare_sweep_dir(first / "sweep", calibrated(first / "calibration", 0.1))
+    shutil.copytree(first, tmp_path / "copy")
+    prepare_sweep_dir(tmp_path / "copy" / "sweep", calibrated(tmp_path / "copy" / "calibration", 0.1))
+    shutil.move(first, tmp_path / "moved")  # the recorded path is gone: the recorded digest decides
+    prepare_sweep_dir(tmp_path / "moved" / "sweep", calibrated(tmp_path / "moved" / "calibration", 0.1))
+    with pytest.raises(ValueError, match="calibration="):
+        prepare_sweep_dir(tmp_path / "moved" / "sweep", calibrated(tmp_path / "other", 0.2))
+
+
 @pytest.mark.parametrize("content, complete", [
     (None, False), ("{\"completed\": true}", True), ("{\"completed\": false}", False),
     ("{\"completed\": tr", False), ("{}", False), ("{\"completed\": \"true\"}", False)])

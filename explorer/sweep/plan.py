@@ -6,7 +6,9 @@ A sweep directory holds ``sweep.json`` (the settings every run shares) and ``run
 """
 from __future__ import annotations
 
+import hashlib
 import json
+import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -17,6 +19,9 @@ from explorer.run import RunSettings
 SHARED_KEYS = ("robot", "touches", "eval_every", "mesh_resolution", "profile", "calibration", "probe_depth_m")
 #: What a sweep.json written before a key existed meant by it.
 _SHARED_DEFAULTS = {"profile": "datasheet-noise", "calibration": None, "probe_depth_m": 0.03}
+#: Shared settings that may name a file (a profile TOML, an arm calibration): the same content at
+#: another path (a sweep directory copied or moved with its calibration inside) is the same setting.
+_FILE_KEYS = ("profile", "calibration")
 
 
 @dataclass(frozen=True)
@@ -193,17 +198,33 @@ def prepare_sweep_dir(out_dir: Path, config: SweepConfig) -> None:
     """
     out_dir = Path(out_dir)
     record = out_dir / "sweep.json"
+    shared = config.shared()
+    digests = {key: _file_digest(shared[key]) for key in _FILE_KEYS if _file_digest(shared[key])}
     if record.exists():
-        previous = json.loads(record.read_text()).get("shared", {})
-        differing = {k: (previous.get(k), v) for k, v in config.shared().items()
-                     if previous.get(k, _SHARED_DEFAULTS.get(k)) != v}
+        stored = json.loads(record.read_text())
+        previous, previous_digests = stored.get("shared", {}), stored.get("file_digests", {})
+
+        def same(key, value) -> bool:
+            old = previous.get(key, _SHARED_DEFAULTS.get(key))
+            if old == value:
+                return True
+            return key in digests and digests[key] in (previous_digests.get(key), _file_digest(old))
+
+        differing = {k: (previous.get(k), v) for k, v in shared.items() if not same(k, v)}
         if differing:
             text = ", ".join(f"{k}={old!r} there, {new!r} now" for k, (old, new) in differing.items())
             raise ValueError(f"{out_dir} holds a sweep with other settings ({text}); "
                              "use another output directory")
     (out_dir / "runs").mkdir(parents=True, exist_ok=True)
-    record.write_text(json.dumps({"shared": config.shared(), "last_config": _jsonable(asdict(config))},
-                                 indent=2))
+    record.write_text(json.dumps({"shared": shared, "file_digests": digests,
+                                  "last_config": _jsonable(asdict(config))}, indent=2))
+
+
+def _file_digest(value) -> str | None:
+    """SHA-256 of the file an absolute path names, None for anything else (a profile's name, None)."""
+    if not isinstance(value, str) or not os.path.isabs(value) or not Path(value).is_file():
+        return None
+    return hashlib.sha256(Path(value).read_bytes()).hexdigest()
 
 
 def _jsonable(value):
