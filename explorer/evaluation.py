@@ -37,10 +37,12 @@ def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray) 
         contacts to the truth); the
         topology of both (``topology``, ``truth_topology``:
         :class:`reconstruction.topology.Topology`) and what the reconstruction has too many of,
-        ``extra_handles`` (holes through thin walls, bridges) and ``extra_components``.
+        ``extra_handles`` (holes through thin walls, bridges) and ``extra_components``; ``recess``
+        (:class:`reconstruction.metrics.RecessError`: error and coverage in the truth's recesses, the
+        insides of cups and bowls, against the rest).
     """
     from objects.proximity import MeshProximity
-    from reconstruction.metrics import contact_coverage, surface_error
+    from reconstruction.metrics import contact_coverage, recess_error, surface_error
     from reconstruction.topology import surface_topology
 
     err = surface_error(mesh, truth)
@@ -49,7 +51,8 @@ def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray) 
                   edge_rmse_mm=err.edge_rmse_mm, **{k: getattr(err, k) for k in STANDARD_METRICS},
                   surface_error=asdict(err), topology=shape.as_dict(), truth_topology=true_shape.as_dict(),
                   extra_handles=shape.genus - true_shape.genus,
-                  extra_components=shape.components - true_shape.components)
+                  extra_components=shape.components - true_shape.components,
+                  recess=asdict(recess_error(mesh, truth, points if len(points) else None, COVERAGE_RADIUS_M)))
     if len(points):
         proximity = MeshProximity(truth)
         _, distance, face = proximity.query(points)

@@ -13,7 +13,8 @@ Public API:
   convex hull and tangent planes; ``GPIS.mesh()`` applies it to a copy by default);
 * metrics: :func:`surface_error` (-> :class:`SurfaceError`), :func:`shape_metrics`,
   :func:`point_cloud_metrics` (-> :class:`ShapeMetrics`: Chamfer, F-score, normal consistency),
-  :func:`contact_coverage`; :func:`surface_topology` (-> :class:`Topology`: parts, genus,
+  :func:`contact_coverage`, :func:`recess_error` (-> :class:`RecessError`: the insides against the
+  rest); :func:`surface_topology` (-> :class:`Topology`: parts, genus,
   boundary loops);
 * test data: :func:`sample_contacts` with :class:`ContactNoise`.
 
@@ -45,6 +46,9 @@ _LAZY = {
     "shape_metrics": "reconstruction.metrics",
     "point_cloud_metrics": "reconstruction.metrics",
     "contact_coverage": "reconstruction.metrics",
+    "recess_error": "reconstruction.metrics",
+    "RecessError": "reconstruction.metrics",
+    "RECESS_DEPTH_M": "reconstruction.metrics",
     "ContactNoise": "reconstruction.synthetic_contacts",
     "sample_contacts": "reconstruction.synthetic_contacts",
     "sphere_contacts": "reconstruction.synthetic_contacts",

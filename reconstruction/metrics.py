@@ -6,7 +6,9 @@ degrees (report units); everything inside is SI.
 Besides the project's own symmetric RMSEs, the metrics of the shape-reconstruction literature
 (Chamfer distance in its L1 and L2 conventions, F-score at 1 / 2 / 5 mm, normal consistency) come
 from the same samples: :func:`surface_error` against the exact surfaces, :func:`point_cloud_metrics`
-for two sampled point clouds (nearest sample instead of nearest surface point).
+for two sampled point clouds (nearest sample instead of nearest surface point). :func:`recess_error`
+splits the truth into its recesses (the insides of cups, bowls, trays and holes) and the rest, where
+tactile exploration does very differently.
 """
 from __future__ import annotations
 
@@ -357,6 +359,81 @@ def contact_coverage(contacts_m: np.ndarray, truth: trimesh.Trimesh, radius_m: f
     points, _ = sample_surface(truth, n_samples, np.random.default_rng(seed))
     distance, _ = cKDTree(contacts_m).query(points, k=1)
     return float(np.mean(distance <= radius_m))
+
+
+#: How far below the truth's convex hull a surface point must lie, along its normal, to be in a recess.
+RECESS_DEPTH_M = 0.005
+
+
+@dataclass(frozen=True)
+class RecessError:
+    """Truth -> reconstruction error and coverage, split into the truth's recesses and the rest.
+
+    A truth surface point is in a *recess* when the point ``depth_m`` out along its outward normal
+    still lies inside the truth's convex hull: the insides of cups, bowls and trays, the wall of a
+    ring's hole, the crease under a handle. The rest (*open* surface) faces free space.
+
+    Attributes
+    ----------
+    recess_fraction : float
+        Share of the truth's area in recesses, [0, 1].
+    recess_rmse_mm, open_rmse_mm : float or None
+        RMS distance from the truth samples of each part to the reconstruction, mm (None: no
+        sample in that part).
+    recess_coverage, open_coverage : float or None
+        Share of each part within the coverage radius of a contact (None: no contacts given, or no
+        sample in that part).
+    n_samples : int
+    """
+
+    recess_fraction: float
+    recess_rmse_mm: float | None
+    open_rmse_mm: float | None
+    recess_coverage: float | None
+    open_coverage: float | None
+    n_samples: int
+
+
+def recess_error(reconstruction: trimesh.Trimesh, truth: trimesh.Trimesh, contacts_m: np.ndarray | None = None,
+                 coverage_radius_m: float = 0.01, depth_m: float = RECESS_DEPTH_M, n_samples: int = 5000,
+                 seed: int = 0) -> RecessError:
+    """Truth -> reconstruction RMS distance and contact coverage in the truth's recesses and elsewhere.
+
+    Parameters
+    ----------
+    reconstruction, truth : trimesh.Trimesh
+        Same frame, metres.
+    contacts_m : (n, 3) float or None
+        Contacts in that frame, metres (for the coverage columns).
+    coverage_radius_m : float
+        A truth sample within this distance of a contact is covered, metres.
+    depth_m : float
+        Recess depth threshold along the outward normal, metres (:class:`RecessError`).
+    n_samples : int
+        Area-uniform truth samples (seeded).
+    """
+    from scipy.spatial import ConvexHull
+
+    _check_mesh(reconstruction, "reconstruction")
+    _check_mesh(truth, "truth")
+    n_samples = _checked_count(n_samples, "n_samples")
+    points, faces = sample_surface(truth, n_samples, np.random.default_rng(seed))
+    outward = points + depth_m * np.asarray(truth.face_normals)[faces]
+    hull = ConvexHull(np.asarray(truth.vertices, float))
+    recess = np.all(outward @ hull.equations[:, :3].T + hull.equations[:, 3] < 0.0, axis=1)
+    _, distance, _ = MeshProximity(reconstruction).query(points)
+
+    def rms_mm(mask):
+        return 1e3 * _rms(distance[mask]) if mask.any() else None
+
+    recess_coverage = open_coverage = None
+    if contacts_m is not None and len(contacts_m):
+        covered = cKDTree(np.asarray(contacts_m, float).reshape(-1, 3)).query(points, k=1)[0] <= coverage_radius_m
+        recess_coverage = float(covered[recess].mean()) if recess.any() else None
+        open_coverage = float(covered[~recess].mean()) if (~recess).any() else None
+    return RecessError(recess_fraction=float(recess.mean()), recess_rmse_mm=rms_mm(recess),
+                       open_rmse_mm=rms_mm(~recess), recess_coverage=recess_coverage,
+                       open_coverage=open_coverage, n_samples=n_samples)
 
 
 def benchmark(n_samples: int = 20000) -> None:

@@ -21,12 +21,14 @@ TARGET_RMSE_MM = 3.0
 #: Error level of the ``touches_to_2mm`` column, millimetres.
 SECOND_TARGET_RMSE_MM = 2.0
 
+#: ``metrics.json``'s ``recess`` figures (:class:`reconstruction.metrics.RecessError`) as sweep columns.
+RECESS_COLUMNS = ("recess_fraction", "recess_rmse_mm", "open_rmse_mm", "recess_coverage")
 COLUMNS = ("object", "strategy", "normals", "seed", "touches", "contacts", "position_rmse_mm",
-           "normal_rmse_deg", *STANDARD_METRICS, "coverage", "extra_handles", "wall_time_s", "touches_to_3mm",
-           "touches_to_2mm",
+           "normal_rmse_deg", *STANDARD_METRICS, "coverage", "extra_handles", *RECESS_COLUMNS, "wall_time_s",
+           "touches_to_3mm", "touches_to_2mm",
            "completed", "error", "run")
 NUMERIC = ("touches", "contacts", "position_rmse_mm", "normal_rmse_deg", *STANDARD_METRICS, "coverage",
-           "extra_handles", "wall_time_s", "touches_to_3mm", "touches_to_2mm")
+           "extra_handles", *RECESS_COLUMNS, "wall_time_s", "touches_to_3mm", "touches_to_2mm")
 
 
 def touches_to_reach(error_curve: Sequence[dict], target_mm: float = TARGET_RMSE_MM) -> int | None:
@@ -58,7 +60,7 @@ def table_row(run, label: str, metrics: dict | None, error: str | None) -> dict:
         if metrics is None:
             raise ValueError(f"run {run.name} has no metrics.json but no error either")
         for key in NUMERIC[:-2]:
-            row[key] = metrics.get(key)
+            row[key] = (metrics.get("recess") or {}).get(key) if key in RECESS_COLUMNS else metrics.get(key)
         row["touches_to_3mm"] = touches_to_reach(metrics.get("error_curve", []))
         row["touches_to_2mm"] = touches_to_reach(metrics.get("error_curve", []), SECOND_TARGET_RMSE_MM)
     return row

@@ -68,6 +68,8 @@ class ObjectResult:
     touches_to_3mm: float
     touches_to_2mm: float
     extra_handles: float = float("nan")
+    recess_rmse_mm: float = float("nan")
+    open_rmse_mm: float = float("nan")
 
 
 def object_results(rows: Sequence[dict], strategy: str | None = None, normals: bool = True) -> list[ObjectResult]:
@@ -88,7 +90,8 @@ def object_results(rows: Sequence[dict], strategy: str | None = None, normals: b
             name, split_of(name), family_of(name), len(members), float(np.mean(rmse)),
             (float(np.min(rmse)), float(np.max(rmse))), _mean(members, "coverage"), _mean(members, "contacts"),
             _mean(members, "chamfer_l1_mm"), _mean(members, "fscore_2mm"),
-            _mean(members, "touches_to_3mm"), _mean(members, "touches_to_2mm"), _mean(members, "extra_handles")))
+            _mean(members, "touches_to_3mm"), _mean(members, "touches_to_2mm"), _mean(members, "extra_handles"),
+            _mean(members, "recess_rmse_mm"), _mean(members, "open_rmse_mm")))
     return out
 
 
@@ -146,8 +149,19 @@ def target_summary(results: Sequence[ObjectResult]) -> str:
             f"{int(np.sum(coverage >= COVERAGE_TARGET))}/{len(members)}; reached 3 mm: {len(reached3)}/{len(members)}"
             + (f" (mean {np.mean(reached3):.0f} touches)" if reached3 else "")
             + f", 2 mm: {len(reached2)}/{len(members)}" + (f" (mean {np.mean(reached2):.0f} touches)" if reached2 else "")
-            + _handles_summary(members))
+            + _handles_summary(members) + _recess_summary(members))
     return "\n\n".join(lines)
+
+
+def _recess_summary(members: Sequence[ObjectResult]) -> str:
+    """"; in recesses ...": the objects with recesses (cups, bowls, holes), their error inside the
+    recesses against elsewhere (truth -> reconstruction RMS); nothing for sweeps from before the column."""
+    known = [m for m in members if np.isfinite(m.recess_rmse_mm) and np.isfinite(m.open_rmse_mm)]
+    if not known:
+        return ""
+    inside, outside = [m.recess_rmse_mm for m in known], [m.open_rmse_mm for m in known]
+    return (f"; the {len(known)} objects with recesses: truth -> reconstruction RMS {np.mean(inside):.2f} mm in "
+            f"them, {np.mean(outside):.2f} mm elsewhere (means)")
 
 
 def split_figure(curves: Sequence[tuple[str, list[dict]]], path: Path) -> Path:
