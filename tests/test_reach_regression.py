@@ -43,3 +43,14 @@ def test_the_reach_breakdown_accounts_for_the_whole_surface(run):
     assert reach["pad_does_not_fit"] < 0.2
     assert reach["reachable"] > 0.6
     assert reach["touched"] <= run.metrics["coverage"] + 0.2   # the same contacts, 64 samples vs many
+
+
+def test_metrics_split_the_error_between_the_recesses_and_the_rest(run):
+    recess = run.metrics["recess"]
+    if "bowl" in run.metrics["object"]:
+        # a property of the truth, not of the run: the bowl's inside is about half its area
+        assert 0.3 < recess["recess_fraction"] < 0.7
+        assert recess["recess_rmse_mm"] > 0.0 and 0.0 <= recess["recess_coverage"] <= 1.0
+    else:
+        assert recess["recess_fraction"] == 0.0 and recess["recess_rmse_mm"] is None   # a wedge is convex
+    assert recess["open_rmse_mm"] > 0.0 and 0.0 <= recess["open_coverage"] <= 1.0
