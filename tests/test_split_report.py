@@ -47,12 +47,14 @@ def test_the_summary_counts_objects_against_the_targets():
     held_out = next(line for line in target_summary(object_results(holed)).split("\n\n")
                     if line.startswith("held-out"))
     assert held_out.endswith("; extra handles: 1/3 (bowl/1000 3.0)")
-    figures = ((4.0, 1.0), (6.0, 1.0), (None, 2.0), (3.0, 1.5))  # mug, mug, wedge (no recess), bowl
-    recessed = [dict(r, recess_rmse_mm=inside, open_rmse_mm=outside) for r, (inside, outside) in zip(ROWS, figures)]
+    # mug, mug, wedge, bowl: the wedge's 5 % recess is too small to count
+    figures = ((0.5, 4.0, 1.0), (0.5, 6.0, 1.0), (0.05, 9.0, 2.0), (0.5, 3.0, 1.5))
+    recessed = [dict(r, recess_fraction=share, recess_rmse_mm=inside, open_rmse_mm=outside)
+                for r, (share, inside, outside) in zip(ROWS, figures)]
     held_out = next(p for p in target_summary(object_results(recessed + ROWS[4:])).split("\n\n")
                     if p.startswith("held-out"))
-    assert held_out.endswith("; the 2 objects with recesses: truth -> reconstruction RMS 4.00 mm in them, "
-                             "1.25 mm elsewhere (means)")
+    assert held_out.endswith("; the 2 objects with recesses (>= 10% of the area): truth -> reconstruction RMS "
+                             "4.00 mm in them, 1.25 mm elsewhere (means)")
     table = family_table(object_results(ROWS))
     assert "| mug | 0.50 |" in table and "mug/1000 2.00 (1.00-3.00)" in table
 
