@@ -428,7 +428,10 @@ def recess_error(reconstruction: trimesh.Trimesh, truth: trimesh.Trimesh, contac
 
     recess_coverage = open_coverage = None
     if contacts_m is not None and len(contacts_m):
-        covered = cKDTree(np.asarray(contacts_m, float).reshape(-1, 3)).query(points, k=1)[0] <= coverage_radius_m
+        contacts_m = np.asarray(contacts_m, float)
+        if contacts_m.ndim != 2 or contacts_m.shape[1] != 3 or not np.all(np.isfinite(contacts_m)):
+            raise ValueError(f"contacts_m must be finite points of shape (n, 3), got shape {contacts_m.shape}")
+        covered = cKDTree(contacts_m).query(points, k=1)[0] <= coverage_radius_m
         recess_coverage = float(covered[recess].mean()) if recess.any() else None
         open_coverage = float(covered[~recess].mean()) if (~recess).any() else None
     return RecessError(recess_fraction=float(recess.mean()), recess_rmse_mm=rms_mm(recess),

@@ -54,3 +54,9 @@ def test_a_convex_object_has_no_recess():
     sphere = trimesh.creation.icosphere(subdivisions=3, radius=0.05)
     error = recess_error(sphere, sphere)
     assert error.recess_fraction == 0.0 and error.recess_rmse_mm is None and error.open_rmse_mm < 1e-3
+
+
+def test_contacts_of_the_wrong_shape_are_refused(pocketed):
+    truth, _ = pocketed
+    with pytest.raises(ValueError, match=r"shape \(n, 3\)"):
+        recess_error(truth, truth, contacts_m=np.zeros((4, 2)))
