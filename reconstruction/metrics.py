@@ -204,6 +204,16 @@ def _checked_count(value: int, what: str) -> int:
     return int(value)
 
 
+def _checked_contacts(contacts_m) -> np.ndarray:
+    """``contacts_m`` as a finite (n, 3) float array; ValueError naming what is wrong."""
+    contacts_m = np.asarray(contacts_m, float)
+    if contacts_m.ndim != 2 or contacts_m.shape[1] != 3:
+        raise ValueError(f"contacts_m must have shape (n, 3), got {contacts_m.shape}")
+    if not np.all(np.isfinite(contacts_m)):
+        raise ValueError("contacts_m has non-finite coordinates")
+    return contacts_m
+
+
 def _angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Angle between paired unit vectors, degrees (atan2 form: accurate near 0 and 180)."""
     return np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("nd,nd->n", a, b)))
@@ -347,11 +357,7 @@ def contact_coverage(contacts_m: np.ndarray, truth: trimesh.Trimesh, radius_m: f
     """
     _check_mesh(truth, "truth")
     n_samples = _checked_count(n_samples, "n_samples")
-    contacts_m = np.asarray(contacts_m, float)
-    if contacts_m.ndim != 2 or contacts_m.shape[1] != 3:
-        raise ValueError(f"contacts_m must have shape (n, 3), got {contacts_m.shape}")
-    if not np.all(np.isfinite(contacts_m)):
-        raise ValueError("contacts_m has non-finite coordinates")
+    contacts_m = _checked_contacts(contacts_m)
     if not (np.isfinite(radius_m) and radius_m > 0):
         raise ValueError(f"radius_m must be a positive finite distance in metres, got {radius_m}")
     if len(contacts_m) == 0:
@@ -428,10 +434,7 @@ def recess_error(reconstruction: trimesh.Trimesh, truth: trimesh.Trimesh, contac
 
     recess_coverage = open_coverage = None
     if contacts_m is not None and len(contacts_m):
-        contacts_m = np.asarray(contacts_m, float)
-        if contacts_m.ndim != 2 or contacts_m.shape[1] != 3 or not np.all(np.isfinite(contacts_m)):
-            raise ValueError(f"contacts_m must be finite points of shape (n, 3), got shape {contacts_m.shape}")
-        covered = cKDTree(contacts_m).query(points, k=1)[0] <= coverage_radius_m
+        covered = cKDTree(_checked_contacts(contacts_m)).query(points, k=1)[0] <= coverage_radius_m
         recess_coverage = float(covered[recess].mean()) if recess.any() else None
         open_coverage = float(covered[~recess].mean()) if (~recess).any() else None
     return RecessError(recess_fraction=float(recess.mean()), recess_rmse_mm=rms_mm(recess),

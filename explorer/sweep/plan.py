@@ -199,7 +199,7 @@ def prepare_sweep_dir(out_dir: Path, config: SweepConfig) -> None:
     out_dir = Path(out_dir)
     record = out_dir / "sweep.json"
     shared = config.shared()
-    digests = {key: _file_digest(shared[key]) for key in _FILE_KEYS if _file_digest(shared[key])}
+    digests = {key: digest for key in _FILE_KEYS if (digest := _file_digest(shared[key]))}
     if record.exists():
         stored = json.loads(record.read_text())
         previous, previous_digests = stored.get("shared", {}), stored.get("file_digests", {})
