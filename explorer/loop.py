@@ -40,7 +40,7 @@ from explorer.strategies import ExplorationState, TouchStrategy
 from explorer.touch import Touch, TouchOutcome
 from reconstruction.gpis import GPIS
 from robots.interface import MoveNotReachedError
-from sensor.contact_detection import PressureContactDetector
+from sensor.contact_detection import PressureContactDetector, PressureDetectorConfig
 from sensor.normal_estimation import SettlingConfig
 from sensor.reading import Reading
 
@@ -187,6 +187,13 @@ class LoopConfig:
         A press whose settled force lies below the contact detector's end threshold had let go
         before the orientation settled (:class:`explorer.contact.PressReleased`): ``no_normal``,
         and the pad's place is not taken as a side press. False: the loop before 2026-11-26.
+    release_at_contact_threshold : bool
+        The release test's pressure is the detector's start threshold, the rise that makes a
+        contact (about 0.16 N on the simulated pads), not its end threshold (half that): a pad
+        settled below it is not a contact by the loop's own criterion, and at 0.08 N its spring
+        has no torque left to turn the pad flat (held-out mug/1000's first touch settled at
+        0.085 N, 23.5 mm from the mug, its normal 90 deg off). False: the end threshold (sessions
+        recorded before 2026-11-27 replay so).
     repress_force_n : float
         A contact that is doubtful after the press is pressed on (at most ``press_depth_m`` further)
         to this force and measured again from the readings of that second press: the pad reaches
@@ -238,12 +245,20 @@ class LoopConfig:
     side_contact_force_n: float = 1.3
     side_contact_tilt_rad: float = float(np.radians(12.0))
     drop_released_presses: bool = True
+    release_at_contact_threshold: bool = True
     swept_free_space: bool = True
     reconstruction_free_space_noise: float | None = 0.002
     reconstruction_gates_misses: bool = True
     line_tolerance_m: float | None = 0.005
     stop_off_line: bool = False
     loose_settle_deviation_rad: float | None = float(np.radians(1.5))
+
+    def release_threshold_pa(self, detector: PressureDetectorConfig) -> float | None:
+        """The contact pipeline's release test pressure (``ContactPipeline.release_threshold_pa``)
+        for this contact detector; None when released presses are kept."""
+        if not self.drop_released_presses:
+            return None
+        return detector.start_threshold_pa if self.release_at_contact_threshold else detector.end_threshold_pa
 
     def loose_settling(self, settling: SettlingConfig) -> SettlingConfig | None:
         """The contact pipeline's fallback settling test (``ContactPipeline.loose_settling``):
@@ -353,8 +368,7 @@ class ExplorationLoop:
         self.recorder = recorder or Recorder()
         self.detector = detector or PressureContactDetector()
         self.contact_pipeline = ContactPipeline(rig.kinematics, rig.pad, settling, doubt=config.doubt_rule(),
-                                                release_threshold_pa=self.detector.config.end_threshold_pa
-                                                if config.drop_released_presses else None,
+                                                release_threshold_pa=config.release_threshold_pa(self.detector.config),
                                                 loose_settling=config.loose_settling(settling))
         self.evidence = config.evidence(gpis)
         self._repress_side_contacts = config.presses_on_side_contacts(rig.pad.compliance_m_per_n)

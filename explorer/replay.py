@@ -295,6 +295,8 @@ class SessionReplay:
             self.loop_config = replace(self.loop_config, side_press_noise=None)
         if "drop_released_presses" not in recorded_loop:  # recorded before the release test
             self.loop_config = replace(self.loop_config, drop_released_presses=False)
+        if "release_at_contact_threshold" not in recorded_loop:  # released below the end threshold then
+            self.loop_config = replace(self.loop_config, release_at_contact_threshold=False)
         if "swept_free_space" not in recorded_loop:  # recorded before the swept lines counted
             self.loop_config = replace(self.loop_config, swept_free_space=False)
         if "loose_settle_deviation_rad" not in recorded_loop:  # recorded before the loose fallback
@@ -336,8 +338,8 @@ class SessionReplay:
         if self.truncated_files:
             notes.append("cut off mid-record (last incomplete line ignored): " + ", ".join(self.truncated_files))
         detector_config = self._detector_config(settings)
-        self.pipeline.release_threshold_pa = (detector_config.end_threshold_pa if self.loop_config.drop_released_presses
-                                              and not self.teleop else None)
+        self.pipeline.release_threshold_pa = (None if self.teleop
+                                              else self.loop_config.release_threshold_pa(detector_config))
         touches = []
         if self.teleop:
             detected = detect_presses(self.readings, detector_config)

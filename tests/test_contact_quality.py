@@ -224,6 +224,35 @@ def test_a_press_whose_pad_let_go_before_it_settled_is_no_contact(settled_n, rel
     assert not isinstance(caught.value, PressReleased)
 
 
+def test_the_loop_releases_a_press_settled_below_its_own_contact_criterion():
+    """The loop's release test asks the detector's start threshold (the rise that makes a contact);
+    a press that peaked at 1.6 N and settled between the end and the start threshold is released by
+    default and kept by the rule before 2026-11-27 (the end threshold)."""
+    from explorer.contact import PressReleased
+    from explorer.loop import LoopConfig
+    from sensor.contact_detection import PressureDetectorConfig
+
+    detector = PressureDetectorConfig()
+    assert LoopConfig().release_threshold_pa(detector) == detector.start_threshold_pa
+    assert LoopConfig(release_at_contact_threshold=False).release_threshold_pa(detector) == detector.end_threshold_pa
+    assert LoopConfig(drop_released_presses=False).release_threshold_pa(detector) is None
+
+    pad = PadCalibration(compliance_m_per_n=0.0, spring_stiffness_nm_per_rad=K_NM_PER_RAD)
+    kinematics = TiltedToolKinematics(np.array([0.0, 0.0, -PIVOT_TO_FACE_M]))
+    frame = ObjectFrame(np.eye(3), np.zeros(3))
+    end_n = pad.force_model.force_estimate_n(detector.end_threshold_pa)
+    start_n = pad.force_model.force_estimate_n(detector.start_threshold_pa)
+    settled_n = 0.5 * (end_n + start_n)
+    peak, settled = press_readings(Rotation.identity(), 1.6)[:5], press_readings(Rotation.identity(), settled_n)
+    readings = peak + [dataclasses.replace(r, t_s=r.t_s + 0.05) for r in settled]
+    with pytest.raises(PressReleased, match="let go"):
+        ContactPipeline(kinematics, pad, release_threshold_pa=LoopConfig().release_threshold_pa(detector)).measure(
+            readings, BASELINE_PA, np.zeros(3), frame)
+    before = ContactPipeline(kinematics, pad,
+                             release_threshold_pa=LoopConfig(release_at_contact_threshold=False).release_threshold_pa(detector))
+    assert before.measure(readings, BASELINE_PA, np.zeros(3), frame).quality.force_n == pytest.approx(settled_n, abs=0.02)
+
+
 def test_the_doubt_rule_needs_both_the_rim_and_an_oblique_approach():
     rule = DoubtRule(rim_margin_m=0.006, approach_angle_rad=np.radians(10.0))
 

@@ -233,7 +233,7 @@ def test_a_dip_below_the_end_threshold_mid_press_does_not_cut_the_contact(sphere
 
 
 def test_a_press_that_let_go_is_replayed_as_no_contact_and_no_side_press(sphere_run):
-    """The run recorded the release test, so replay applies it at the detector's end threshold; a
+    """The run recorded the release test, so replay applies it at the detector's start threshold; a
     press the pipeline finds released (forced here for the first contact) adds nothing to the GPIS,
     neither a contact nor a side-press row. A session recorded before the test replays without it."""
     from explorer.contact import PressReleased
@@ -250,7 +250,7 @@ def test_a_press_that_let_go_is_replayed_as_no_contact_and_no_side_press(sphere_
 
     replaying.pipeline.measure = release_the_first
     result = replaying.run(ReplaySettings(figures=False, side_presses=True))
-    assert replaying.pipeline.release_threshold_pa == replaying._detector_config(ReplaySettings()).end_threshold_pa
+    assert replaying.pipeline.release_threshold_pa == replaying._detector_config(ReplaySettings()).start_threshold_pa
     released = [t for t in result.touches if t.kind == "no_normal"]
     assert len(released) == 1 and released[0].side_m is None
     contacts = [r for r in sphere_run.records if r.kind == "contact"]
@@ -260,6 +260,11 @@ def test_a_press_that_let_go_is_replayed_as_no_contact_and_no_side_press(sphere_
     old = sphere_run.out_dir / "old-session"
     shutil.copytree(sphere_run.out_dir / "session", old)
     metadata = json.loads((old / "metadata.json").read_text())
+    del metadata["configuration"]["loop"]["release_at_contact_threshold"]
+    (old / "metadata.json").write_text(json.dumps(metadata))
+    end_rule = SessionReplay(old)   # recorded when the release test asked the end threshold
+    end_rule.run(ReplaySettings(figures=False))
+    assert end_rule.pipeline.release_threshold_pa == end_rule._detector_config(ReplaySettings()).end_threshold_pa
     del metadata["configuration"]["loop"]["drop_released_presses"]
     metadata["configuration"]["loop"]["swept_free_space"] = True   # a run that had it on ...
     (old / "metadata.json").write_text(json.dumps(metadata))
