@@ -4,8 +4,13 @@ the shape under the pad (issue 11).
 For every contact a run recorded (or, with ``--replay``, measured again from the session by the
 current pipeline), the distance to the true surface and the angle to the true normal, binned by the
 distance of the true closest point to the nearest sharp edge and by the turn of the true normal
-under the pad (:mod:`explorer.contact_truth`). Also the contacts the pipeline flagged as doubtful
-and the realign touches. Simulated runs only (the truth is the run's object).
+under the pad (:mod:`explorer.contact_truth`), by how far past its target the touch went (a probe
+that passed the GPIS's guessed surface meets the true one at an angle the guess did not predict),
+by the angle between the approach and the true normal, and by the press's peak force over the
+loop's press force (a press that ran out of depth short of it met the surface with the pad's rim
+or side). Each bin also gives its share of all contacts' squared position error. Also the contacts
+the pipeline flagged as doubtful and the realign touches. Simulated runs only (the truth is the
+run's object).
 
 Options: ``--replay recorded|pad-centre|current`` measures the contacts again from the session, as
 recorded, at the pad-face centre (the pipeline before issue 11), or with the current pipeline and
@@ -70,7 +75,8 @@ def run_contacts(run: Path, replay: str | None, compliance_m_per_n: float | None
                                                 doubt=LoopConfig().doubt_rule() if current else DoubtRule(-np.inf))
         touches = replayer.run(_settings())
         rows = [dict(index=t.index, kind=t.kind, strategy=t.strategy, position_m=t.position_m, normal=t.normal,
-                     quality=_quality_dict(t.quality)) for t in touches.touches if t.position_m is not None]
+                     quality=_quality_dict(t.quality), target_m=t.target_m, approach_dir=t.approach_dir)
+                for t in touches.touches if t.position_m is not None]
     else:
         rows = []
         for event in SessionReader(session).events():
@@ -79,8 +85,16 @@ def run_contacts(run: Path, replay: str | None, compliance_m_per_n: float | None
                 continue
             rows.append(dict(index=fields.get("index"), kind=fields["result"], strategy=fields.get("strategy", ""),
                              position_m=np.asarray(fields["position_m"], float),
-                             normal=np.asarray(fields["normal"], float), quality=fields.get("quality") or {}))
+                             normal=np.asarray(fields["normal"], float), quality=fields.get("quality") or {},
+                             target_m=_vector(fields.get("target_m")), approach_dir=_vector(fields.get("approach_dir"))))
+    press_force_n = ((metadata.get("configuration") or {}).get("loop") or {}).get("press_force_n")
+    for row in rows:
+        row["press_force_n"] = press_force_n
     return str(metadata.get("object")), rows
+
+
+def _vector(value):
+    return None if value is None else np.asarray(value, float)
 
 
 def _settings():
@@ -119,8 +133,34 @@ def analyse(object_name: str, rows: list[dict]):
                         tilt_deg=_deg(q.get("tilt_rad")), rim_distance_mm=_mm(q.get("rim_distance_m")),
                         approach_deg=_deg(None if q.get("approach_cosine") is None
                                           else float(np.arccos(np.clip(q["approach_cosine"], -1, 1)))),
-                        force_n=q.get("force_n")))
+                        force_n=q.get("force_n"), past_target_mm=_past_target_mm(row),
+                        incidence_deg=_incidence_deg(row, truth.true_normal[i]),
+                        force_ratio=_force_ratio(q, row.get("press_force_n"))))
     return out
+
+
+def _past_target_mm(row) -> float:
+    """How far along its approach the contact lies past the touch's target, mm (NaN if unknown)."""
+    if row.get("target_m") is None or row.get("approach_dir") is None:
+        return float("nan")
+    return 1e3 * float(np.dot(np.asarray(row["position_m"]) - row["target_m"], row["approach_dir"]))
+
+
+def _incidence_deg(row, true_normal: np.ndarray) -> float:
+    """Angle between the approach and the true inward normal, deg (NaN if unknown)."""
+    if row.get("approach_dir") is None:
+        return float("nan")
+    return float(np.degrees(np.arccos(np.clip(-np.dot(row["approach_dir"], true_normal), -1.0, 1.0))))
+
+
+def _force_ratio(quality: dict, press_force_n) -> float:
+    """The press's peak force (the settled force where no peak was recorded) over the loop's press force."""
+    force = quality.get("peak_force_n")
+    if force is None:
+        force = quality.get("force_n")
+    if force is None or not press_force_n:
+        return float("nan")
+    return float(force) / float(press_force_n)
 
 
 def _deg(value):
@@ -154,27 +194,35 @@ def summary(table: list[dict]) -> dict:
 
 
 def binned(table: list[dict], key: str, edges) -> list[dict]:
+    """Rows per bin ``[lo, hi)`` of ``key`` over the contacts used (NaN values in no bin): ``n``,
+    position RMS, normal mean, doubtful fraction and ``error_share``, the bin's share of all used
+    contacts' squared position error."""
     used = [r for r in table if r["kind"] == "contact"]
+    total = float(sum(r["position_error_mm"] ** 2 for r in used))
     rows = []
     for lo, hi in zip(edges[:-1], edges[1:]):
         inside = [r for r in used if lo <= r[key] < hi]
-        row = dict(bin=f"{lo:g}-{hi:g}" if np.isfinite(hi) else f">= {lo:g}", n=len(inside))
+        label = f"< {hi:g}" if not np.isfinite(lo) else f"{lo:g}-{hi:g}" if np.isfinite(hi) else f">= {lo:g}"
+        row = dict(bin=label, n=len(inside))
         if inside:
-            row.update(position_rms_mm=float(np.sqrt(np.mean([r["position_error_mm"] ** 2 for r in inside]))),
+            squared = [r["position_error_mm"] ** 2 for r in inside]
+            row.update(position_rms_mm=float(np.sqrt(np.mean(squared))),
                        normal_mean_deg=float(np.mean([r["normal_error_deg"] for r in inside])),
-                       doubtful=float(np.mean([r["doubtful"] for r in inside])))
+                       doubtful=float(np.mean([r["doubtful"] for r in inside])),
+                       error_share=float(sum(squared) / total) if total > 0 else 0.0)
         rows.append(row)
     return rows
 
 
 def _print_bins(title: str, rows: list[dict]) -> None:
-    print(f"\n{title}\n| bin | contacts | position RMS mm | normal mean deg | doubtful |\n|---|---|---|---|---|")
+    print(f"\n{title}\n| bin | contacts | position RMS mm | normal mean deg | doubtful | share of squared position error |"
+          "\n|---|---|---|---|---|---|")
     for r in rows:
         if r["n"]:
             print(f"| {r['bin']} | {r['n']} | {r['position_rms_mm']:.2f} | {r['normal_mean_deg']:.1f} | "
-                  f"{r['doubtful']:.2f} |")
+                  f"{r['doubtful']:.2f} | {r['error_share']:.2f} |")
         else:
-            print(f"| {r['bin']} | 0 | | | |")
+            print(f"| {r['bin']} | 0 | | | | |")
 
 
 def main(argv=None) -> int:
@@ -204,8 +252,14 @@ def main(argv=None) -> int:
               f"{total['offset_median_mm']:+.2f} mm, slope {total.get('offset_slope_mm_per_n', float('nan')):+.2f} mm/N")
     edge = binned(table, "edge_distance_mm", (0, 3, 6, 9, 15, np.inf))
     spread = binned(table, "normal_spread_deg", (0, 10, 25, 45, 70, 181))
+    past = binned(table, "past_target_mm", (-np.inf, 9, 20, 40, 80, np.inf))
+    incidence = binned(table, "incidence_deg", (0, 15, 30, 45, 60, 181))
+    force = binned(table, "force_ratio", (0, 0.5, 0.98, 2, 4, np.inf))
     _print_bins("by distance of the true closest point to a sharp edge (mm)", edge)
     _print_bins("by turn of the true normal within 9 mm (deg)", spread)
+    _print_bins("by distance past the touch's target along its approach (mm; 9 = half the pad)", past)
+    _print_bins("by angle between the approach and the true normal (deg)", incidence)
+    _print_bins("by the press's peak force over the loop's press force", force)
     if args.csv:
         import csv
 
@@ -215,7 +269,8 @@ def main(argv=None) -> int:
             writer.writerows(table)
     if args.json:
         args.json.write_text(json.dumps(dict(runs=per_run, all=total, by_edge_distance_mm=edge,
-                                             by_normal_spread_deg=spread), indent=1))
+                                             by_normal_spread_deg=spread, by_past_target_mm=past,
+                                             by_incidence_deg=incidence, by_force_ratio=force), indent=1))
     return 0
 
 

@@ -395,3 +395,37 @@ def test_the_analysis_script_refuses_a_directory_without_a_run(tmp_path, capsys)
         main([str(tmp_path), "--compliance", "0.136"])
     assert exit_info.value.code == 2
     assert "--compliance needs --replay" in capsys.readouterr().err
+
+
+def test_the_analysis_bins_by_distance_past_the_target_incidence_and_force(monkeypatch):
+    """On a 10 cm box with hand-placed contacts: the distance past the target along the approach,
+    the angle between the approach and the true normal, the peak force over the press force, and
+    each bin's share of the squared position error, all known in closed form."""
+    import trimesh
+
+    import objects
+    from scripts.contact_quality import analyse, binned
+
+    box = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
+    monkeypatch.setattr(objects, "load", lambda name: type("Model", (), {"mesh": box, "sharp_edges": np.zeros((0, 2, 3))})())
+    down = np.array([0.0, 0.0, -1.0])
+    tilted = np.array([np.sin(np.radians(50.0)), 0.0, -np.cos(np.radians(50.0))])   # 50 deg off the top's normal
+    rows = [  # (surface point, approach, target, peak force): the top face z = 0.05 m
+        (np.array([0.0, 0.0, 0.051]), down, np.array([0.0, 0.0, 0.056]), 1.6),    # 5 mm past, head on, 1 mm out
+        (np.array([0.01, 0.0, 0.053]), tilted, np.array([0.01, 0.0, 0.053]) - 0.03 * tilted, 1.2),  # 30 mm past, 3 mm out
+    ]
+    table = analyse("box", [dict(index=i, kind="contact", strategy="variance", position_m=p, normal=np.array([0.0, 0.0, 1.0]),
+                                 quality=dict(peak_force_n=f, force_n=f), target_m=t, approach_dir=a, press_force_n=1.5)
+                            for i, (p, a, t, f) in enumerate(rows)])
+    assert [r["past_target_mm"] for r in table] == pytest.approx([5.0, 30.0])
+    assert [r["incidence_deg"] for r in table] == pytest.approx([0.0, 50.0])
+    assert [r["force_ratio"] for r in table] == pytest.approx([1.6 / 1.5, 1.2 / 1.5])
+    past = binned(table, "past_target_mm", (-np.inf, 9, 20, 40, np.inf))
+    assert [r["n"] for r in past] == [1, 0, 1, 0] and past[0]["bin"] == "< 9" and past[3]["bin"] == ">= 40"
+    assert past[0]["error_share"] == pytest.approx(1.0 / 10.0) and past[2]["error_share"] == pytest.approx(9.0 / 10.0)
+    assert past[2]["position_rms_mm"] == pytest.approx(3.0)
+    # a touch without its target or approach (teleoperation) is in no bin of those two
+    bare = analyse("box", [dict(index=0, kind="contact", strategy="teleop", position_m=rows[0][0],
+                                normal=np.array([0.0, 0.0, 1.0]), quality={}, target_m=None, approach_dir=None)])
+    assert np.isnan(bare[0]["past_target_mm"]) and np.isnan(bare[0]["incidence_deg"]) and np.isnan(bare[0]["force_ratio"])
+    assert sum(r["n"] for r in binned(bare, "past_target_mm", (-np.inf, 9, np.inf))) == 0
