@@ -184,8 +184,8 @@ class LoopConfig:
         contacts; stopping them made the contacts more accurate but the tuning split's
         reconstructions worse (BENCHMARKS.md, "Approaches pushed off their line").
     drop_released_presses : bool
-        A press whose settled force lies below the contact detector's end threshold had let go
-        before the orientation settled (:class:`explorer.contact.PressReleased`): ``no_normal``,
+        A press whose settled force lies below the release pressure (see
+        ``release_at_contact_threshold``) had let go before the orientation settled (:class:`explorer.contact.PressReleased`): ``no_normal``,
         and the pad's place is not taken as a side press. False: the loop before 2026-11-26.
     release_at_contact_threshold : bool
         The release test's pressure is the detector's start threshold, the rise that makes a
