@@ -143,3 +143,50 @@ def binned_errors(truth: ContactTruth, by: str, flags: np.ndarray | None = None)
                 row["flagged"] = float(np.mean(np.asarray(flags, bool)[inside]))
         rows.append(row)
     return rows
+
+
+def with_true_contacts(records: list, mesh, worse_than_m: float = 0.0, leave_out: bool = False,
+                       positions: bool = True, normals: bool = True) -> tuple[list, int]:
+    """The recorded touches with every contact more than ``worse_than_m`` off the true surface
+    measured without error: what the run's reconstruction would have been given had the pipeline
+    measured those contacts exactly (``scripts/contact_error_cost.py``).
+
+    Such a contact becomes its true closest point with the outward normal of the face holding it
+    (a copy; its target, approach and the rest as recorded, so its swept line now ends at the true
+    point); only its position or only its normal with ``normals`` or ``positions`` False; with
+    ``leave_out`` it is left out instead, swept line and all. Every other touch is passed on as it is.
+
+    Parameters
+    ----------
+    records : list of explorer.touch.TouchOutcome
+        A run's touches in order (a replay's ``ReplayResult.touches``), object frame.
+    mesh : trimesh.Trimesh
+        The truth, object frame, metres, outward normals.
+    worse_than_m : float
+        Contacts farther than this from the true surface are changed, metres (0: every contact).
+
+    Returns
+    -------
+    (list, int)
+        The touches and the number of contacts changed.
+    """
+    from dataclasses import replace
+
+    from objects.proximity import MeshProximity
+
+    if not worse_than_m >= 0.0:
+        raise ValueError(f"worse_than_m must be >= 0 metres, got {worse_than_m!r}")
+    contacts = [i for i, r in enumerate(records) if r.kind == "contact"]
+    if not contacts:
+        return list(records), 0
+    closest, distance, face = MeshProximity(mesh).query(np.array([records[i].position_m for i in contacts], float))
+    changed = {i: k for k, i in enumerate(contacts) if distance[k] > worse_than_m}
+    out = []
+    for i, record in enumerate(records):
+        if i not in changed:
+            out.append(record)
+        elif not leave_out:
+            k = changed[i]
+            out.append(replace(record, position_m=closest[k].copy() if positions else record.position_m,
+                               normal=mesh.face_normals[face[k]].copy() if normals else record.normal))
+    return out, len(changed)

@@ -565,18 +565,40 @@ class SessionReplay:
             notes=list(notes),
         )
 
+    def mesh_resolution(self, settings: ReplaySettings = ReplaySettings()) -> int:
+        """Grid cells per axis the reconstruction is meshed at: ``settings``' or the run's."""
+        return settings.mesh_resolution or int(self.configuration.get("mesh_resolution", 96))
+
+    def refit(self, touches: list[TouchOutcome], settings: ReplaySettings = ReplaySettings()) -> GPIS:
+        """The field the run's reconstruction is meshed from, fitted to ``touches`` (a replay's
+        :attr:`ReplayResult.touches`, or edited copies of them, object frame) with the recorded
+        settings and ``settings``: contacts and misses in order as :meth:`run` adds them, plus the
+        swept free space where the run had it. Mesh it at :meth:`mesh_resolution` to compare with the
+        run. ``touches`` may be changed as :meth:`run` changes them (a miss's free space filled in,
+        a contact outside the prior box made ``not_modelled``)."""
+        use_normals = (self.configuration.get("use_normals", True) if settings.use_normals is None
+                       else settings.use_normals)
+        gpis = self._fit(touches, settings, use_normals, [])
+        return self._reconstruction_field(gpis, touches, settings)[0]
+
+    def _reconstruction_field(self, gpis: GPIS, touches: list[TouchOutcome],
+                              settings: ReplaySettings) -> tuple[GPIS, int | None]:
+        """``gpis`` plus the swept free space as the run's reconstruction had it, and the number of
+        those rows (None: the run had none)."""
+        if self.loop_config.swept_free_space and not self.teleop:
+            return self._loop_config(settings).reconstruction_field(gpis, touches)
+        return gpis, None
+
     def _write(self, result: ReplayResult, settings: ReplaySettings, use_normals: bool) -> None:
         out = result.out_dir
         out.mkdir(parents=True, exist_ok=True)
         outputs.write_text(out / "contacts.csv", CONTACTS_HEADER + "".join(
             contacts_csv_row(t, t.contact.t_s, t.contact.force_n) for t in result.contacts))
         metrics = result.metrics
-        resolution = settings.mesh_resolution or int(self.configuration.get("mesh_resolution", 96))
-        field = result.gpis
-        if self.loop_config.swept_free_space and not self.teleop:  # as the run's reconstruction had it
-            field, metrics["swept_free_space_rows"] = self._loop_config(settings).reconstruction_field(
-                field, result.touches)
-        mesh = write_mesh(field, resolution, out, metrics)
+        field, swept_rows = self._reconstruction_field(result.gpis, result.touches, settings)
+        if swept_rows is not None:
+            metrics["swept_free_space_rows"] = swept_rows
+        mesh = write_mesh(field, self.mesh_resolution(settings), out, metrics)
         add_errors(metrics, mesh, self.truth, result.points_m, result.normals)
         outputs.write_json(out / "metrics.json", jsonable(metrics))
         if mesh is not None and self.truth is not None and settings.figures:
