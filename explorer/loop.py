@@ -33,6 +33,7 @@ from explorer.config import ExplorationConfig
 from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame,
                               PadSideContact, PressReleased, wants_realign)
 from explorer.evidence import SurfaceEvidence, with_swept_free_space
+from explorer.pad_bridging import PadBridging
 from explorer.motion_time import MotionTimeEstimator
 from explorer.planner import ApproachPlan, ApproachPlanner
 from explorer.rig import Rig
@@ -218,6 +219,12 @@ class LoopConfig:
         in a curved hollow the pad can rock by a degree for the whole hold while it rests where it
         touched: 5-16 % of the budget on bowls, rings, plates and lids. Chosen on the tuning split
         (BENCHMARKS.md). None: the loop before 2026-11-27.
+    bridge_concave_contacts : bool
+        The reconstruction takes each contact on a concave surface as lying below where the pad's
+        centre stayed, by the height the flat pad bridged (:meth:`reconstruction_records`,
+        :mod:`explorer.pad_bridging`); with normals only. The loop's own field is left as measured.
+        Chosen on the tuning split (BENCHMARKS.md, "A flat pad bridges concave surfaces"). False:
+        runs recorded before 2026-11-27.
     """
 
     touches: int = ExplorationConfig.touches
@@ -252,6 +259,7 @@ class LoopConfig:
     line_tolerance_m: float | None = 0.005
     stop_off_line: bool = False
     loose_settle_deviation_rad: float | None = float(np.radians(1.5))
+    bridge_concave_contacts: bool = True
 
     def release_threshold_pa(self, detector: PressureDetectorConfig) -> float | None:
         """The contact pipeline's release test pressure (``ContactPipeline.release_threshold_pa``)
@@ -269,16 +277,28 @@ class LoopConfig:
         return replace(settling, max_deviation_rad=self.loose_settle_deviation_rad, window="steadiest",
                        average_window_s=settling.settle_window_s)
 
-    def reconstruction_field(self, gpis: GPIS, records) -> tuple[GPIS, int]:
+    def reconstruction_records(self, records, pad_half_width_m: float, use_normals: bool = True) -> tuple[list, int]:
+        """The touches the reconstruction is fitted to, and the number of contacts changed:
+        ``records`` with each contact on a concave surface moved in by the height its pad bridged
+        (:class:`explorer.pad_bridging.PadBridging`, from the neighbours' measured normals) when
+        ``bridge_concave_contacts`` and the GPIS uses normals; else ``records`` as they are.
+        ``pad_half_width_m``: half the side of the square pad, metres."""
+        if not (self.bridge_concave_contacts and use_normals):
+            return list(records), 0
+        return PadBridging().apply(records, pad_half_width_m)
+
+    def reconstruction_field(self, gpis: GPIS, records, pad_half_width_m: float) -> tuple[GPIS, int]:
         """The field the run's reconstruction is meshed from and the number of free-space rows it
-        adds: ``gpis`` (rebuilt from ``records`` without the misses' rows when
+        adds: ``gpis`` rebuilt from :meth:`reconstruction_records` (without the misses' rows when
         ``reconstruction_gates_misses``) plus the gated rows of ``swept_free_space``. ``gpis`` itself
-        is unchanged."""
+        is unchanged; with neither bridged contacts nor swept rows nor gated misses it is the field."""
+        records, bridged = self.reconstruction_records(records, pad_half_width_m, gpis.use_normals)
+        if (self.reconstruction_gates_misses and self.swept_free_space) or bridged:
+            gpis = self.evidence(gpis).rebuilt(records, self.doubtful_normal_noise,
+                                               misses=not (self.reconstruction_gates_misses and self.swept_free_space)).gpis
         if not self.swept_free_space:
             return gpis, 0
         noise = self.free_space_noise if self.reconstruction_free_space_noise is None else self.reconstruction_free_space_noise
-        if self.reconstruction_gates_misses:
-            gpis = self.evidence(gpis).rebuilt(records, self.doubtful_normal_noise, misses=False).gpis
         return with_swept_free_space(gpis, records, self.free_space_value, noise,
                                      misses=self.reconstruction_gates_misses)
 

@@ -93,6 +93,9 @@ class ReplaySettings:
         Give the GPIS a value row at the pad-face centre of each press on the pad's side
         (``LoopConfig.side_press_value`` / ``side_press_noise``, the recorded ones or else the
         defaults); None: as recorded (sessions recorded before these rows: none).
+    bridge_concave_contacts : bool or None
+        Move contacts on concave surfaces in by the height their pad bridged before meshing
+        (``LoopConfig.bridge_concave_contacts``); None: as recorded (sessions recorded before: off).
     figures : bool
         Write the PNG figures.
     """
@@ -106,6 +109,7 @@ class ReplaySettings:
     mesh_resolution: int | None = None
     segment_gap_s: float | None = None
     side_presses: bool | None = None
+    bridge_concave_contacts: bool | None = None
     figures: bool = True
 
     def __post_init__(self):
@@ -305,6 +309,8 @@ class SessionReplay:
             self.loop_config = replace(self.loop_config, reconstruction_free_space_noise=None)
         if "reconstruction_gates_misses" not in recorded_loop:  # meshed with the loop's miss rows
             self.loop_config = replace(self.loop_config, reconstruction_gates_misses=False)
+        if "bridge_concave_contacts" not in recorded_loop:  # meshed with the contacts as measured
+            self.loop_config = replace(self.loop_config, bridge_concave_contacts=False)
         doubt = (DoubtRule() if self.teleop else DoubtRule(-np.inf) if self.legacy_contacts
                  else self.loop_config.doubt_rule())
         self.pipeline = ContactPipeline(self.kinematics, self.pad, self.settling,
@@ -509,11 +515,14 @@ class SessionReplay:
         return gpis
 
     def _loop_config(self, settings: ReplaySettings) -> LoopConfig:
-        """The recorded loop settings, with the side presses as ``settings`` asks."""
-        if settings.side_presses is None:
-            return self.loop_config
-        side_noise = (self.loop_config.side_press_noise or LoopConfig.side_press_noise) if settings.side_presses else None
-        return replace(self.loop_config, side_press_noise=side_noise)
+        """The recorded loop settings, with the side presses and the bridged contacts as ``settings`` asks."""
+        config = self.loop_config
+        if settings.side_presses is not None:
+            side_noise = (config.side_press_noise or LoopConfig.side_press_noise) if settings.side_presses else None
+            config = replace(config, side_press_noise=side_noise)
+        if settings.bridge_concave_contacts is not None:
+            config = replace(config, bridge_concave_contacts=settings.bridge_concave_contacts)
+        return config
 
     def _max_realigns(self) -> int:
         """The loop's realign budget; sessions recorded before it existed had none (every
@@ -583,11 +592,13 @@ class SessionReplay:
 
     def _reconstruction_field(self, gpis: GPIS, touches: list[TouchOutcome],
                               settings: ReplaySettings) -> tuple[GPIS, int | None]:
-        """``gpis`` plus the swept free space as the run's reconstruction had it, and the number of
-        those rows (None: the run had none)."""
-        if self.loop_config.swept_free_space and not self.teleop:
-            return self._loop_config(settings).reconstruction_field(gpis, touches)
-        return gpis, None
+        """``gpis`` as the run's reconstruction had it (``LoopConfig.reconstruction_field``: bridged
+        contacts, swept free space), and the number of swept rows (None: the run had none)."""
+        if self.teleop:
+            return gpis, None
+        config = self._loop_config(settings)
+        field, rows = config.reconstruction_field(gpis, touches, self.pad.half_width_m)
+        return field, rows if config.swept_free_space else None
 
     def _write(self, result: ReplayResult, settings: ReplaySettings, use_normals: bool) -> None:
         out = result.out_dir
@@ -598,6 +609,9 @@ class SessionReplay:
         field, swept_rows = self._reconstruction_field(result.gpis, result.touches, settings)
         if swept_rows is not None:
             metrics["swept_free_space_rows"] = swept_rows
+        if not self.teleop:
+            metrics["bridged_contacts"] = self._loop_config(settings).reconstruction_records(
+                result.touches, self.pad.half_width_m, result.gpis.use_normals)[1]
         mesh = write_mesh(field, self.mesh_resolution(settings), out, metrics)
         add_errors(metrics, mesh, self.truth, result.points_m, result.normals)
         outputs.write_json(out / "metrics.json", jsonable(metrics))

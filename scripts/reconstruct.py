@@ -34,6 +34,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--side-presses", choices=("on", "off"),
                         help="a GPIS value row where the pad met the surface with its side (no normal); "
                              "default: as recorded")
+    parser.add_argument("--bridge-concave", choices=("on", "off"),
+                        help="move contacts on concave surfaces in by the height the flat pad bridged "
+                             "(LoopConfig.bridge_concave_contacts); default: as recorded")
     add_rerun_argument(parser)
     args = parser.parse_args(argv)
     if not args.session.is_dir():
@@ -64,7 +67,8 @@ def main(argv: list[str] | None = None) -> None:
             start_threshold_pa=args.start_threshold_pa, end_threshold_pa=args.end_threshold_pa,
             kernel=args.kernel, noise=args.noise, normal_noise=args.normal_noise,
             use_normals=False if args.no_normals else None, mesh_resolution=args.resolution,
-            side_presses=None if args.side_presses is None else args.side_presses == "on")
+            side_presses=None if args.side_presses is None else args.side_presses == "on",
+            bridge_concave_contacts=None if args.bridge_concave is None else args.bridge_concave == "on")
         result = replay(args.session, settings, args.out)
     except (ValueError, FileNotFoundError) as err:  # a bad setting, or a session that cannot be replayed
         parser.error(str(err))
