@@ -114,6 +114,12 @@ class FitResult:
         parameters' spread means the touches do not determine it.
     pad_compliance_m_per_n : float or None
         The pad's fitted compression on the ball per newton, metres (None: not fitted).
+    resolution : (dof [+ k] [+ 1],) float
+        How much of each fitted parameter the touches determine, 0-1: the diagonal of the model
+        resolution ``(J^T J + ridge)^-1 J^T J``. Near 1 the touches alone set it; near 0 the ridge
+        holds it at zero whatever its true value, and ``parameter_std`` (which counts the ridge as
+        information) understates its error. Ball touches see the pad only along the ball's radius,
+        so the wrist joints, which turn the pad about points near it, come out near 0.
     """
 
     offset_rad: np.ndarray
@@ -123,6 +129,11 @@ class FitResult:
     link_length_error_m: dict = field(default_factory=dict)
     parameter_std: np.ndarray = field(default_factory=lambda: np.zeros(0))
     pad_compliance_m_per_n: float | None = None
+    resolution: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def unresolved(self, below: float = 0.5) -> np.ndarray:
+        """Indices of the joint offsets whose :attr:`resolution` is under ``below``."""
+        return np.flatnonzero(self.resolution[:len(self.offset_rad)] < below)
 
 
 def sphere_residuals_m(kinematics, touches: SphereTouches, offset_rad, link_length_error_m=None,
@@ -249,11 +260,14 @@ def fit_joint_offsets(kinematics, touches: SphereTouches, ridge_m_per_rad: float
         sigma = float(1.4826 * np.median(np.abs(after - np.median(after))))
     else:
         sigma = float(np.sqrt(np.sum(after**2) / max(n - unknowns, 1)))
-    std = sigma * np.sqrt(np.diag(np.linalg.inv(jac.T @ jac + np.diag(ridge))))
+    information = jac.T @ jac
+    covariance = np.linalg.inv(information + np.diag(ridge))
+    std = sigma * np.sqrt(np.diag(covariance))
     return FitResult(offset_rad=offset, residual_before_m=sphere_residuals_m(kinematics, touches, np.zeros(dof)),
                      residual_after_m=after, singular_values=singular,
                      link_length_error_m={k: float(v) for k, v in lengths.items()}, parameter_std=std,
-                     pad_compliance_m_per_n=compliance if pad_compliance else None)
+                     pad_compliance_m_per_n=compliance if pad_compliance else None,
+                     resolution=np.clip(np.diag(covariance @ information), 0.0, 1.0))
 
 
 def _touch_jacobian(touch_residuals: Callable[[np.ndarray], np.ndarray], x: np.ndarray,

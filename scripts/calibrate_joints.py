@@ -241,6 +241,8 @@ def main(argv: list[str] | None = None) -> int:
         "true_offset_deg": np.degrees(truth).round(4).tolist(),
         "fitted_offset_deg": np.degrees(fit.offset_rad).round(4).tolist(),
         "offset_std_deg": np.degrees(fit.parameter_std[:dof]).round(4).tolist(),
+        "offset_resolution": fit.resolution[:dof].round(4).tolist(),
+        "unresolved_joints": [kinematics.spec.joint_names[i] for i in fit.unresolved()],
         "true_link_length_error_mm": {k: round(1e3 * v, 4) for k, v in true_lengths.items()},
         "fitted_link_length_error_mm": {k: round(1e3 * v, 4) for k, v in fit.link_length_error_m.items()},
         "link_length_std_mm": dict(zip(fit.link_length_error_m, (1e3 * fit.parameter_std[dof:]).round(4).tolist())),
@@ -265,6 +267,12 @@ def main(argv: list[str] | None = None) -> int:
     (args.out / "joint_calibration.json").write_text(json.dumps(result, indent=2))
     _figure(before, after, result, args.out / "joint_calibration.png")
     print(json.dumps(result, indent=2))
+    if result["unresolved_joints"]:
+        shares = ", ".join(f"{name} {fit.resolution[i]:.2f}" for name, i in zip(result["unresolved_joints"], fit.unresolved()))
+        print(f"calibrate_joints: the touches determine less than half of these offsets ({shares}); the fit "
+              "keeps them near zero whatever they are, so their offset_std_deg understates their error. "
+              "Calibrate them another way (they turn the pad about points near it, which a ball's radius "
+              "does not see)", file=sys.stderr)
     return 0
 
 

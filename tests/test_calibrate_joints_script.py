@@ -10,7 +10,7 @@ from scripts import calibrate_joints
 
 
 @pytest.mark.parametrize("extra, fit", [([], "robust (Cauchy loss)"), (["--least-squares"], "least squares")])
-def test_the_calibration_file_says_how_it_was_fitted_and_what_it_gained(tmp_path, extra, fit):
+def test_the_calibration_file_says_how_it_was_fitted_and_what_it_gained(tmp_path, extra, fit, capsys):
     out = tmp_path / "calibration"
     status = calibrate_joints.main(["--kinematic", "--robot", "armar3", "--touches", "36", "--seed", "0",
                                     "--out", str(out), *extra])
@@ -22,6 +22,13 @@ def test_the_calibration_file_says_how_it_was_fitted_and_what_it_gained(tmp_path
     assert held_out["after_mean"] < 0.5 * held_out["before_mean"]
     assert (result["touches_off_the_ball"] is None) == bool(extra)
     assert (out / "joint_calibration.png").exists()
+    resolution = np.array(result["offset_resolution"])
+    assert len(resolution) == len(result["fitted_offset_deg"]) and np.all((resolution >= 0) & (resolution <= 1))
+    import robots
+
+    unresolved = [name for name, share in zip(robots.load("armar3").joint_names, resolution) if share < 0.5]
+    assert result["unresolved_joints"] == unresolved
+    assert bool(unresolved) == ("determine less than half of these offsets" in capsys.readouterr().err)
 
 
 def test_too_few_touches_are_refused_with_the_fix(capsys):

@@ -222,3 +222,25 @@ def test_the_pads_compression_is_fitted_from_each_touchs_force(kinematics, true_
         SphereTouches(q_true, quats, centre, radius, force[:-1])
     with pytest.raises(ValueError, match="needs each touch's force"):
         fit_joint_offsets(kinematics, SphereTouches(q_true, quats, centre, radius), pad_compliance=True)
+
+
+def test_the_resolution_says_which_offsets_the_touches_determine(kinematics, true_touches):
+    """With one ridge weight on every offset the resolution is ``V diag(s^2 / (s^2 + w^2)) V^T``
+    from the SVD of the touch residuals' Jacobian (here by central differences, independent of the
+    fit's). The shoulder and elbow are determined; the wrist, which turns the pad about points near
+    it, is held at zero by the ridge, and a vanishing ridge gives every offset back to the touches."""
+    q_true, quats, centre, radius = true_touches
+    injected = np.radians([0.6, -0.4, 0.3, 0.5, -0.7, 0.2, -0.3])
+    touches = SphereTouches(q_true + injected, quats, centre, radius)
+    weight = 0.2
+    fit = fit_joint_offsets(kinematics, touches, ridge_m_per_rad=weight)
+    step = 1e-6
+    jac = np.stack([(sphere_residuals_m(kinematics, touches, fit.offset_rad + step * e)
+                     - sphere_residuals_m(kinematics, touches, fit.offset_rad - step * e)) / (2 * step)
+                    for e in np.eye(kinematics.dof)], axis=1)
+    _, s, vt = np.linalg.svd(jac, full_matrices=False)
+    expected = np.einsum("ki,k->i", vt**2, s**2 / (s**2 + weight**2))
+    np.testing.assert_allclose(fit.resolution, expected, atol=1e-3)
+    assert np.all(fit.resolution[:4] > 0.5) and np.all(fit.resolution[-2:] < 0.5)
+    assert set(fit.unresolved()) >= {5, 6}
+    assert np.all(fit_joint_offsets(kinematics, touches, ridge_m_per_rad=1e-6).resolution > 0.99)
