@@ -39,3 +39,13 @@ def perturbed_physics(request):
     pybullet.setTimeStep = perturbed
     yield
     pybullet.setTimeStep = original
+
+
+@pytest.fixture(scope="session")
+def recorded_sphere_run(tmp_path_factory):
+    """A 5-touch simulated run on the registry sphere (seed 0, mesh 32): its session and outputs,
+    shared by the tests that replay a recorded run. Tests copy what they change."""
+    from explorer.run import RunSettings, explore
+
+    out = tmp_path_factory.mktemp("recorded-sphere")
+    return explore(RunSettings(object="sphere", touches=5, seed=0, eval_every=0, mesh_resolution=32, reach_samples=0), out)

@@ -9,7 +9,6 @@ import trimesh
 
 from explorer.contact_truth import with_true_contacts
 from explorer.replay import ReplaySettings, SessionReplay
-from explorer.run import RunSettings, explore
 from explorer.touch import TouchOutcome
 from reconstruction.metrics import surface_error
 from scripts import contact_error_cost
@@ -49,9 +48,8 @@ def test_contacts_worse_than_the_threshold_move_to_the_true_surface_and_the_rest
 
 
 @pytest.fixture(scope="module")
-def sphere_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("recorded")
-    return explore(RunSettings(object="sphere", touches=5, seed=0, eval_every=0, mesh_resolution=32, reach_samples=0), out)
+def sphere_run(recorded_sphere_run):
+    return recorded_sphere_run
 
 
 def test_the_refit_of_the_replayed_touches_is_the_run_and_exact_contacts_lie_on_the_truth(sphere_run):

@@ -11,7 +11,6 @@ import pytest
 from explorer.loop import LoopConfig
 from explorer.pad_bridging import PadBridging
 from explorer.replay import ReplaySettings, SessionReplay
-from explorer.run import RunSettings, explore
 from explorer.touch import TouchOutcome
 from reconstruction.gpis import GPIS
 
@@ -96,9 +95,8 @@ def test_the_reconstruction_takes_bridged_contacts_only_with_normals_and_the_set
     assert off.reconstruction_field(live.gpis, records, HALF_WIDTH_M)[0] is live.gpis
 
 
-def test_replay_bridges_as_recorded_and_sessions_before_the_setting_do_not(tmp_path):
-    run = explore(RunSettings(object="sphere", touches=5, seed=0, eval_every=0, mesh_resolution=32, reach_samples=0),
-                  tmp_path / "run")
+def test_replay_bridges_as_recorded_and_sessions_before_the_setting_do_not(recorded_sphere_run, tmp_path):
+    run = recorded_sphere_run
     assert "bridged_contacts" in run.metrics
     assert SessionReplay(run.out_dir / "session").loop_config.bridge_concave_contacts
     old = tmp_path / "old-session"

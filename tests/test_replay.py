@@ -13,9 +13,8 @@ from explorer.session import read_session
 
 
 @pytest.fixture(scope="module")
-def sphere_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("recorded")
-    return explore(RunSettings(object="sphere", touches=5, seed=0, eval_every=0, mesh_resolution=32, reach_samples=0), out)
+def sphere_run(recorded_sphere_run):
+    return recorded_sphere_run
 
 
 @pytest.fixture(scope="module")
@@ -232,7 +231,7 @@ def test_a_dip_below_the_end_threshold_mid_press_does_not_cut_the_contact(sphere
     np.testing.assert_allclose(replayed.normals, recorded_replay.normals, rtol=0, atol=1e-9)
 
 
-def test_a_press_that_let_go_is_replayed_as_no_contact_and_no_side_press(sphere_run):
+def test_a_press_that_let_go_is_replayed_as_no_contact_and_no_side_press(sphere_run, tmp_path):
     """The run recorded the release test, so replay applies it at the detector's start threshold; a
     press the pipeline finds released (forced here for the first contact) adds nothing to the GPIS,
     neither a contact nor a side-press row. A session recorded before the test replays without it."""
@@ -257,7 +256,7 @@ def test_a_press_that_let_go_is_replayed_as_no_contact_and_no_side_press(sphere_
     assert len(result.contacts) == len(contacts) - 1
     assert result.gpis.n_rows == 4 * len(result.contacts)  # no side-press row for it
 
-    old = sphere_run.out_dir / "old-session"
+    old = tmp_path / "old-session"  # the recorded run is shared: copies go elsewhere
     shutil.copytree(sphere_run.out_dir / "session", old)
     metadata = json.loads((old / "metadata.json").read_text())
     del metadata["configuration"]["loop"]["release_at_contact_threshold"]
