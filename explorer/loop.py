@@ -33,8 +33,8 @@ from explorer.config import ExplorationConfig
 from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame,
                               PadSideContact, PressReleased, wants_realign)
 from explorer.evidence import SurfaceEvidence, with_swept_free_space
-from explorer.pad_bridging import PadBridging
 from explorer.motion_time import MotionTimeEstimator
+from explorer.pad_bridging import PadBridging
 from explorer.planner import ApproachPlan, ApproachPlanner
 from explorer.rig import Rig
 from explorer.strategies import ExplorationState, TouchStrategy

@@ -356,8 +356,7 @@ class SessionReplay:
             for event, span in self._pressed_touches(settings, notes):
                 realigns = sum(t.kind == "realign" for t in touches)
                 touches.append(self._replay_touch(event, span, detector_config, realigns))
-        use_normals = (self.configuration.get("use_normals", True) if settings.use_normals is None
-                       else settings.use_normals)
+        use_normals = self.use_normals(settings)
         gpis = self._fit(touches, settings, use_normals, notes)
         notes += self._differences(touches)
         metrics = self._metrics(touches, gpis, settings, detector_config, use_normals, notes)
@@ -578,16 +577,19 @@ class SessionReplay:
         """Grid cells per axis the reconstruction is meshed at: ``settings``' or the run's."""
         return settings.mesh_resolution or int(self.configuration.get("mesh_resolution", 96))
 
+    def use_normals(self, settings: ReplaySettings = ReplaySettings()) -> bool:
+        """Whether the GPIS fits the normals: ``settings``' choice or the run's."""
+        return self.configuration.get("use_normals", True) if settings.use_normals is None else settings.use_normals
+
     def refit(self, touches: list[TouchOutcome], settings: ReplaySettings = ReplaySettings()) -> GPIS:
         """The field the run's reconstruction is meshed from, fitted to ``touches`` (a replay's
         :attr:`ReplayResult.touches`, or edited copies of them, object frame) with the recorded
-        settings and ``settings``: contacts and misses in order as :meth:`run` adds them, plus the
-        swept free space where the run had it. Mesh it at :meth:`mesh_resolution` to compare with the
-        run. ``touches`` may be changed as :meth:`run` changes them (a miss's free space filled in,
-        a contact outside the prior box made ``not_modelled``)."""
-        use_normals = (self.configuration.get("use_normals", True) if settings.use_normals is None
-                       else settings.use_normals)
-        gpis = self._fit(touches, settings, use_normals, [])
+        settings and ``settings``: contacts and misses in order as :meth:`run` adds them, then as
+        ``LoopConfig.reconstruction_field`` takes them (bridged contacts, swept free space) where the
+        run did. Mesh it at :meth:`mesh_resolution` to compare with the run. ``touches`` may be
+        changed as :meth:`run` changes them (a miss's free space filled in, a contact outside the
+        prior box made ``not_modelled``)."""
+        gpis = self._fit(touches, settings, self.use_normals(settings), [])
         return self._reconstruction_field(gpis, touches, settings)[0]
 
     def _reconstruction_field(self, gpis: GPIS, touches: list[TouchOutcome],

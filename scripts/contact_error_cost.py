@@ -5,7 +5,8 @@ Each run is replayed with its recorded settings and refitted six ways
 (:meth:`explorer.replay.SessionReplay.refit`, meshed at the run's resolution, position RMSE as
 ``metrics.json`` computes it):
 
-* ``recorded``: the contacts as the pipeline measured them (the run's own RMSE);
+* ``recorded``: the contacts as the pipeline measured them and the run's reconstruction took them
+  (with its bridged contacts moved in; the run's own RMSE);
 * ``exact_bad``: the contacts more than ``--worse-than`` MM (default 3) off the true surface
   replaced by their true closest point and normal (:func:`explorer.contact_truth.with_true_contacts`);
 * ``left_out``: those contacts left out;
@@ -26,6 +27,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -66,12 +68,17 @@ def error_cost(run: Path, worse_than_m: float, mesh_resolution: int | None = Non
         raise ValueError(f"{run}: the run's object {replay.metadata.get('object')!r} has no known truth "
                          "(a simulated run of a registry or generated object is needed)")
     settings = ReplaySettings(figures=False, mesh_resolution=mesh_resolution)
-    touches = replay.run(settings).touches
+    replayed = replay.run(settings).touches
     resolution = replay.mesh_resolution(settings)
+    # the contacts as the run's reconstruction took them (bridged ones moved in), then no further
+    # change: an exact contact is not to be moved
+    touches = replay.loop_config.reconstruction_records(replayed, replay.pad.half_width_m,
+                                                        replay.use_normals(settings))[0]
+    as_given = replace(settings, bridge_concave_contacts=False)
 
     def rmse(records) -> float | None:
         try:
-            mesh = replay.refit(records, settings).mesh(resolution=resolution)
+            mesh = replay.refit(records, as_given).mesh(resolution=resolution)
         except ValueError:  # no zero level set in the region
             return None
         return float(surface_error(mesh, replay.truth).position_rmse_mm)
