@@ -293,9 +293,9 @@ class LoopConfig:
         ``reconstruction_gates_misses``) plus the gated rows of ``swept_free_space``. ``gpis`` itself
         is unchanged; with neither bridged contacts nor swept rows nor gated misses it is the field."""
         records, bridged = self.reconstruction_records(records, pad_half_width_m, gpis.use_normals)
-        if (self.reconstruction_gates_misses and self.swept_free_space) or bridged:
-            gpis = self.evidence(gpis).rebuilt(records, self.doubtful_normal_noise,
-                                               misses=not (self.reconstruction_gates_misses and self.swept_free_space)).gpis
+        gated_misses = self.reconstruction_gates_misses and self.swept_free_space
+        if gated_misses or bridged:
+            gpis = self.evidence(gpis).rebuilt(records, self.doubtful_normal_noise, misses=not gated_misses).gpis
         if not self.swept_free_space:
             return gpis, 0
         noise = self.free_space_noise if self.reconstruction_free_space_noise is None else self.reconstruction_free_space_noise
