@@ -34,12 +34,26 @@ OVERSHOOT_M = 0.025
 uncalibrated arm's pad can be 1-2 cm off where its nominal kinematics put it (ARMAR-III,
 hardware-like, seed 1: 24 of 36 approaches ran out at 8 mm without meeting the ball); the
 detector stops the approach at the contact."""
+CONE_DEG = 85.0
+"""Largest angle between a touch's outward normal and the arm's home facing, degrees. The exploration
+on the stand touches from the side as much as from the front (the reference table's ARMAR-6 contacts:
+normals 36-83 deg from that facing, 10th-90th percentile); offsets fitted from touches within 55 deg
+and IK started at home left errors of 2-4 mm along the normal at the exploration's configurations
+(BENCHMARKS.md, issue 12)."""
 APPROACH_SPEED_MPS = 0.005
 HOLD_S = 0.6
 
 
-def touch_poses(kinematics, count: int, rng: np.random.Generator):
-    """(centres (n, 3), normals (n, 3), ik q (n, dof)) of reachable touches, places in turn."""
+def touch_poses(kinematics, count: int, rng: np.random.Generator, spread: bool = True):
+    """Reachable ball touches, the three places in turn.
+
+    Returns ``(centres (n, 3), normals (n, 3), q (n, dof))``: the ball's centre (world, metres), the
+    touched point's outward normal and the nominal arm's joint angles (radians) that put the pad
+    flat on the ball there. ``spread`` (the default): normals within :data:`CONE_DEG` of the arm's
+    home facing and each pose's inverse kinematics started from its own uniform draw within the
+    joint limits, so the touches visit the arm's configurations as widely as the exploration does;
+    otherwise the design before: within 55 deg, every IK started from the home pose.
+    """
     from robots.ik import solve_pad_ik
 
     spec = kinematics.spec
@@ -48,16 +62,18 @@ def touch_poses(kinematics, count: int, rng: np.random.Generator):
     while len(normals) < 4 * count:
         n = rng.standard_normal(3)
         n /= np.linalg.norm(n)
-        if n @ facing > math.cos(math.radians(55)):
+        if n @ facing > math.cos(math.radians(CONE_DEG if spread else 55.0)):
             normals.append(n)
             centres.append(np.asarray(spec.workspace_center_m, float) + PLACES_M[len(normals) % 3])
     centres, normals = np.array(centres), np.array(normals)
-    ik = solve_pad_ik(kinematics, centres + (BALL_RADIUS_M + STANDOFF_M) * normals, -normals, q_seed=spec.home_q)
+    lower, upper = kinematics.lower_rad, kinematics.upper_rad
+    seeds = lower + (upper - lower) * rng.random((len(normals), spec.dof)) if spread else spec.home_q
+    ik = solve_pad_ik(kinematics, centres + BALL_RADIUS_M * normals, -normals, q_seed=seeds)
     keep = np.flatnonzero(ik.success)[:count]
-    return centres[keep], normals[keep]
+    return centres[keep], normals[keep], ik.q_rad[keep]
 
 
-def run_touches(profile, robot: str, count: int, seed: int, progress=None):
+def run_touches(profile, robot: str, count: int, seed: int, progress=None, spread: bool = True):
     """Touch the ball ``count`` times; returns per-touch reported q, IMU body quaternion, true pad
     position, ball centre, all (n, ...) arrays, the arm's true offsets, the kinematics, the true
     link-length errors and each touch's force from the pad's pressure ((n,) newtons)."""
@@ -75,7 +91,7 @@ def run_touches(profile, robot: str, count: int, seed: int, progress=None):
     spec = profile.robot_spec(robots.load(robot))
     kinematics = ArmKinematics(spec)
     rng = np.random.default_rng(seed)
-    centres, normals = touch_poses(kinematics, count, rng)
+    centres, normals, planned_q = touch_poses(kinematics, count, rng, spread=spread)
     ball = objects.load("sphere")
     rows = []
     with SimWorld(table=None) as world:
@@ -86,13 +102,12 @@ def run_touches(profile, robot: str, count: int, seed: int, progress=None):
         connect_sensor(world, arm, sensor)
         sensor.open()
         handle = world.add_object(ball.urdf_path, centres[0], name="ball")
-        for k, (centre, normal) in enumerate(zip(centres, normals)):
+        for k, (centre, normal, planned) in enumerate(zip(centres, normals, planned_q)):
             arm.guarded_move(spec.home_q[None], lambda: False, speed_rad_s=0.8)
             world.set_object_pose(handle, centre, (1.0, 0.0, 0.0, 0.0))
             depths = np.arange(0.0, STANDOFF_M + OVERSHOOT_M, 0.001)
             points = centre + (BALL_RADIUS_M + STANDOFF_M - depths)[:, None] * normal
-            seed_q = np.clip(arm.joint_positions(), kinematics.lower_rad, kinematics.upper_rad)
-            ik = solve_pad_ik(kinematics, points, np.tile(-normal, (len(depths), 1)), q_seed=seed_q)
+            ik = solve_pad_ik(kinematics, points, np.tile(-normal, (len(depths), 1)), q_seed=planned)
             if not ik.success.all():
                 continue
             arm.guarded_move(ik.q_rad[:1], lambda: False, speed_rad_s=0.8)
@@ -131,7 +146,7 @@ def run_touches(profile, robot: str, count: int, seed: int, progress=None):
     return q, quats, pads, balls, true_offsets, kinematics, dict(arm.link_length_error_m), forces
 
 
-def kinematic_touches(profile, robot: str, count: int, seed: int):
+def kinematic_touches(profile, robot: str, count: int, seed: int, spread: bool = True):
     """The touches of :func:`run_touches` from kinematics alone (seconds, not a simulation): the
     arm with the profile's link-length errors (a rewritten URDF) puts its pad flat on the ball at
     the same planned poses; the encoders read the true angles plus the offsets, half the backlash
@@ -154,8 +169,8 @@ def kinematic_touches(profile, robot: str, count: int, seed: int):
     with tempfile.TemporaryDirectory() as directory:
         true_kinematics = ArmKinematics(with_link_length_errors(spec, lengths, Path(directory)))
     rng = np.random.default_rng(seed)
-    centres, normals = touch_poses(kinematics, count, rng)
-    ik = solve_pad_ik(true_kinematics, centres + BALL_RADIUS_M * normals, -normals, q_seed=spec.home_q)
+    centres, normals, planned_q = touch_poses(kinematics, count, rng, spread=spread)
+    ik = solve_pad_ik(true_kinematics, centres + BALL_RADIUS_M * normals, -normals, q_seed=planned_q)
     q_true = ik.q_rad[ik.success]
     pad = true_kinematics.forward_kinematics(q_true)
     body = true_kinematics.forward_kinematics(q_true, spec.sensor_body_link)
@@ -181,9 +196,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--robot", default="armar3")
     parser.add_argument("--touches", type=int, default=36, help="touches in all (2/3 calibrate, 1/3 held out)")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--link-lengths", action="store_true",
-                        help="fit the arm's link lengths too (off by default: from one ball at three places "
-                             "their standard errors, 0.5-1 mm on ARMAR-III, exceed the errors; BENCHMARKS.md)")
+    parser.add_argument("--link-lengths", action=argparse.BooleanOptionalAction, default=True,
+                        help="fit the arm's link lengths too (default; from touches whose IK started at home "
+                             "their standard errors exceeded the errors, BENCHMARKS.md)")
+    parser.add_argument("--home-poses", action="store_true",
+                        help="the touch poses before issue 12's spread: IK from the home pose, normals within "
+                             "55 deg of its facing (for comparison)")
     parser.add_argument("--least-squares", action="store_true",
                         help="plain least squares with a cross-validated ridge (the fit before the robust default; "
                              "every touch weighs, also one whose pad did not lie flat on the ball)")
@@ -206,11 +224,11 @@ def main(argv: list[str] | None = None) -> int:
     started = time.perf_counter()
     if args.kinematic:
         q, quats, pads, balls, truth, kinematics, true_lengths, forces = kinematic_touches(
-            profile, args.robot, args.touches, args.seed)
+            profile, args.robot, args.touches, args.seed, spread=not args.home_poses)
     else:
         q, quats, pads, balls, truth, kinematics, true_lengths, forces = run_touches(
             profile, args.robot, args.touches, args.seed,
-            progress=lambda line: print(line, file=sys.stderr, flush=True))
+            progress=lambda line: print(line, file=sys.stderr, flush=True), spread=not args.home_poses)
     n_fit = (2 * len(q)) // 3
     if n_fit < kinematics.dof + 4:
         print(f"calibrate_joints: only {len(q)} touches were usable; raise --touches", file=sys.stderr)

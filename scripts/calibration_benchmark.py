@@ -24,12 +24,9 @@ SCORE_POSES = 200
 
 def pad_error_scorer(kinematics, true_offset_rad: np.ndarray, seed: int):
     """A function: fitted offsets (dof,) -> mean pad position error, mm, at :data:`SCORE_POSES` ball poses."""
-    from robots.ik import solve_pad_ik
-    from scripts.calibrate_joints import BALL_RADIUS_M, touch_poses
+    from scripts.calibrate_joints import touch_poses
 
-    centres, normals = touch_poses(kinematics, SCORE_POSES, np.random.default_rng(100 + seed))
-    ik = solve_pad_ik(kinematics, centres + BALL_RADIUS_M * normals, -normals, q_seed=kinematics.spec.home_q)
-    poses = ik.q_rad[ik.success]
+    _, _, poses = touch_poses(kinematics, SCORE_POSES, np.random.default_rng(100 + seed))
     nominal = kinematics.forward_kinematics(poses).position_m
 
     def score(offset_rad) -> float:
