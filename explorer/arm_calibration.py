@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 import tempfile
+import weakref
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -67,7 +68,9 @@ def calibrated_arm(robot, kinematics, calibration: ArmCalibration):
         raise ValueError("calibration offsets must be finite")
     corrected = kinematics
     if any(calibration.link_length_error_m.values()):
-        with tempfile.TemporaryDirectory(prefix="calibrated_arm_") as directory:  # read once, when built
-            corrected = ArmKinematics(with_link_length_errors(kinematics.spec, calibration.link_length_error_m,
-                                                              Path(directory)))
+        # the planner reads the URDF's collision shapes later: the directory lives as long as the model
+        directory = tempfile.TemporaryDirectory(prefix="calibrated_arm_")
+        corrected = ArmKinematics(with_link_length_errors(kinematics.spec, calibration.link_length_error_m,
+                                                          Path(directory.name)))
+        weakref.finalize(corrected, directory.cleanup)
     return CalibratedRobot(robot, calibration.offset_rad), corrected

@@ -5,7 +5,9 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from explorer.arm_calibration import read_arm_calibration
@@ -107,3 +109,30 @@ def test_calibration_files_are_checked_by_name(tmp_path):
     with pytest.raises(ValueError, match="a calibrated sweep runs that robot and that one seed"):
         SweepConfig(objects=("sphere",), strategies=("variance",), seeds=(0,), robot="armar3",
                     profile="hardware-like", calibration=str(path))
+
+
+def test_a_calibrated_arm_with_fitted_link_lengths_keeps_its_model_readable(tmp_path):
+    """The calibrated kinematics' URDF (links lengthened by the fit) must outlive ``calibrated_arm``:
+    the planner reads its collision shapes when the run starts, and every calibrated run failed with
+    FileNotFoundError once the calibration fitted link lengths. Its directory goes with the model."""
+    import gc
+
+    import robots
+    from explorer.arm_calibration import ArmCalibration, calibrated_arm
+    from robots.kinematics import ArmKinematics
+    from robots.link_spheres import ArmSpheres
+
+    spec = robots.load("armar6")
+    nominal = ArmKinematics(spec)
+    calibration = ArmCalibration("armar6", "hardware-like", 0, np.zeros(spec.dof), {"elbow": 0.002})
+    robot, kinematics = calibrated_arm(SimpleNamespace(dof=spec.dof), nominal, calibration)
+    gc.collect()
+    urdf = Path(kinematics.spec.urdf_path)
+    assert urdf.is_file() and urdf != Path(spec.urdf_path)
+    ArmSpheres(kinematics, kinematics.link_names[1:4])  # reads the URDF again
+    q = spec.home_q[None]
+    shift = kinematics.forward_kinematics(q).position_m - nominal.forward_kinematics(q).position_m
+    assert 0.0015 < np.linalg.norm(shift) < 0.0025  # the elbow link is 2 mm longer in the pad's chain
+    del kinematics
+    gc.collect()
+    assert not urdf.exists()
