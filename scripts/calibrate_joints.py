@@ -9,8 +9,11 @@ touches calibrate (a robust fit by default: a touch whose pad did not lie flat o
 bend the offsets; the pad's compression on the ball is fitted with them from each touch's force;
 ``--least-squares`` is the plain fit with a cross-validated ridge), the last third
 are held out: their pad position computed from the encoders is compared with the simulator's true
-pad position before and after the offsets are applied. Writes ``joint_calibration.json`` and
-``joint_calibration.png`` into ``--out``.
+pad position before and after the offsets are applied, and their distance from the ball with the
+fitted model (``held_out_ball_residual_mm``) is what a lab, without that truth, checks the fit by:
+the error along the touched normal, the one that moves a contact off a surface. The touches come
+from all around the ball and from configurations spread over the joint ranges
+(:func:`touch_poses`). Writes ``joint_calibration.json`` and ``joint_calibration.png`` into ``--out``.
 
     python -m scripts.calibrate_joints --profile hardware-like --touches 36 --seed 0 --out DIR
 """
@@ -218,7 +221,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.touches < 12:
         parser.error(f"--touches must be at least 12 (8 to calibrate 7 joints, 4 held out), got {args.touches}")
     from robots.joint_calibration import (ROBUST_RIDGE_M_PER_RAD, ROBUST_SCALE_M, SphereTouches, cross_validated_ridge,
-                                          fit_joint_offsets)
+                                          fit_joint_offsets, sphere_residuals_m)
     from robots.link_lengths import link_length_shift_m
 
     started = time.perf_counter()
@@ -251,6 +254,10 @@ def main(argv: list[str] | None = None) -> int:
 
     before = errors_mm(np.zeros_like(fit.offset_rad), {})
     after = errors_mm(fit.offset_rad, fit.link_length_error_m)
+    held_out = SphereTouches(q[n_fit:], quats[n_fit:], balls[n_fit:], BALL_RADIUS_M,
+                             None if forces is None else forces[n_fit:])
+    held_out_residual_mm = 1e3 * sphere_residuals_m(kinematics, held_out, fit.offset_rad, fit.link_length_error_m,
+                                                    fit.pad_compliance_m_per_n or 0.0)
     dof = kinematics.dof
     result = {
         "profile": profile.name, "robot": args.robot, "seed": args.seed, "touches_used": int(len(q)),
@@ -277,6 +284,9 @@ def main(argv: list[str] | None = None) -> int:
         "ridge_cross_validation_rms_mm": {str(k): round(1e3 * v[0], 4) for k, v in scores.items()},
         "ball_residual_rms_mm": {"before": float(1e3 * np.sqrt(np.mean(fit.residual_before_m**2))),
                                  "after": float(1e3 * np.sqrt(np.mean(fit.residual_after_m**2)))},
+        "held_out_ball_residual_mm": {"rms": float(np.sqrt(np.mean(held_out_residual_mm**2))),
+                                      "median": float(np.median(held_out_residual_mm)),
+                                      "max": float(np.abs(held_out_residual_mm).max())},
         "held_out_pad_error_mm": {"before_mean": float(before.mean()), "before_max": float(before.max()),
                                   "after_mean": float(after.mean()), "after_max": float(after.max())},
         "wall_s": time.perf_counter() - started,

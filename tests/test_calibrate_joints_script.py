@@ -20,6 +20,8 @@ def test_the_calibration_file_says_how_it_was_fitted_and_what_it_gained(tmp_path
     assert result["touches_from"] == "kinematics" and result["robot"] == "armar3"
     held_out = result["held_out_pad_error_mm"]
     assert held_out["after_mean"] < 0.5 * held_out["before_mean"]
+    on_the_ball = result["held_out_ball_residual_mm"]  # what a lab sees, without the truth
+    assert on_the_ball["rms"] < held_out["after_mean"] and on_the_ball["max"] >= abs(on_the_ball["median"])
     assert (result["touches_off_the_ball"] is None) == bool(extra)
     assert (out / "joint_calibration.png").exists()
     resolution = np.array(result["offset_resolution"])
