@@ -61,16 +61,24 @@ def calibrated_arm(robot, kinematics, calibration: ArmCalibration):
     """(robot, kinematics) corrected by ``calibration``: readings minus the offsets, commands plus
     them, and the nominal model with the fitted link lengths."""
     from robots.joint_calibration import CalibratedRobot
-    from robots.kinematics import ArmKinematics
-    from robots.link_lengths import with_link_length_errors
 
     if not all(math.isfinite(v) for v in calibration.offset_rad):
         raise ValueError("calibration offsets must be finite")
-    corrected = kinematics
-    if any(calibration.link_length_error_m.values()):
-        # the planner reads the URDF's collision shapes later: the directory lives as long as the model
-        directory = tempfile.TemporaryDirectory(prefix="calibrated_arm_")
-        corrected = ArmKinematics(with_link_length_errors(kinematics.spec, calibration.link_length_error_m,
-                                                          Path(directory.name)))
-        weakref.finalize(corrected, directory.cleanup)
-    return CalibratedRobot(robot, calibration.offset_rad), corrected
+    return CalibratedRobot(robot, calibration.offset_rad), with_fitted_link_lengths(kinematics,
+                                                                                    calibration.link_length_error_m)
+
+
+def with_fitted_link_lengths(kinematics, link_length_error_m: dict):
+    """``kinematics`` with its links longer by ``link_length_error_m`` (joint name -> metres), or
+    ``kinematics`` itself when there are none. A run's and its replay's model (the session's
+    metadata keeps the calibration)."""
+    from robots.kinematics import ArmKinematics
+    from robots.link_lengths import with_link_length_errors
+
+    if not any((link_length_error_m or {}).values()):
+        return kinematics
+    # the planner reads the URDF's collision shapes later: the directory lives as long as the model
+    directory = tempfile.TemporaryDirectory(prefix="calibrated_arm_")
+    corrected = ArmKinematics(with_link_length_errors(kinematics.spec, link_length_error_m, Path(directory.name)))
+    weakref.finalize(corrected, directory.cleanup)
+    return corrected

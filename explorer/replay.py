@@ -47,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from explorer import outputs
+from explorer.arm_calibration import with_fitted_link_lengths
 from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, PressReleased,
                               wants_realign)
 from explorer.evaluation import jsonable
@@ -286,7 +287,9 @@ class SessionReplay:
         robot = self.metadata["robot"]
         robot_name = robot if isinstance(robot, str) else robot.get("name")
         spec = robots.load(robot_name)
-        self.kinematics = ArmKinematics(spec)
+        # the recorded joint angles are already corrected by a calibration's offsets, not by its lengths
+        calibration = self.metadata.get("calibration") or {}
+        self.kinematics = with_fitted_link_lengths(ArmKinematics(spec), calibration.get("link_length_error_m") or {})
         # Sessions recorded before issue 11 measured contacts at the pad-face centre (their pad
         # calibration has no spring stiffness), had no doubtful contacts and set aside every
         # misaligned one: replayed as they were recorded. Teleop uses the default rule.

@@ -319,7 +319,10 @@ def log_session(session_dir: Path, observer: RerunObserver, use_normals: bool | 
     configuration = metadata.get("configuration") or {}
     kinematics = None
     try:
-        kinematics = ArmKinematics(robots.load(metadata["robot"]))
+        from explorer.arm_calibration import with_fitted_link_lengths
+
+        lengths = (metadata.get("calibration") or {}).get("link_length_error_m") or {}
+        kinematics = with_fitted_link_lengths(ArmKinematics(robots.load(metadata["robot"])), lengths)
     except (KeyError, ValueError, OSError):
         pass
     truth = None

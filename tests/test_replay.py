@@ -304,3 +304,21 @@ def test_a_touch_recorded_as_pushed_off_its_line_is_counted_as_such(sphere_run, 
     assert pushed.index == event["index"] and pushed.kind == "contact"
     np.testing.assert_array_equal(pushed.left_line_m, [0.01, 0.02, 0.03])
     assert result.metrics["left_line"] == result.metrics["contacts_after_left_line"] == 1
+
+
+def test_a_run_on_an_arm_calibrated_with_link_lengths_replays_its_own_contacts(tmp_path):
+    """The recorded joint angles are corrected by the calibration's offsets but not by its link
+    lengths: the replay must rebuild the run's model from the calibration in the metadata, or every
+    contact moves by the lengths (1.5 mm here)."""
+    calibration = tmp_path / "joint_calibration.json"
+    calibration.write_text(json.dumps({"robot": "armar3", "profile": "hardware-like", "seed": 0,
+                                       "fitted_offset_deg": [0.0] * 7,
+                                       "fitted_link_length_error_mm": {"elbow": 1.5}}))
+    run = explore(RunSettings(object="sphere", touches=3, seed=0, eval_every=0, mesh_resolution=24, reach_samples=0,
+                              profile="hardware-like", calibration=str(calibration)), tmp_path / "run")
+    recorded = read_session(run.out_dir / "session").contacts
+    assert recorded
+    replayed = SessionReplay(run.out_dir / "session").run(ReplaySettings(figures=False)).contacts
+    assert len(replayed) == len(recorded)
+    for again, original in zip(replayed, recorded):
+        np.testing.assert_allclose(again.contact.position_m, original.position_m, rtol=0, atol=1e-9)
