@@ -69,8 +69,9 @@ def pivot_error_along_normal_m(kinematics, q_true, normals, true_offset_rad, tru
     return np.sum((model - true) * np.asarray(normals), axis=1)
 
 
-def score_design(robot: str, seed: int, spread: bool, link_lengths: bool, q_true, normals) -> tuple[float, float]:
-    """(RMS, median) of :func:`pivot_error_along_normal_m`, metres, for one arm and design."""
+def score_poses(robot: str, seed: int, spread: bool, q_true, normals) -> dict[bool, tuple[float, float]]:
+    """For one arm and pose design, fitted without and with link lengths (the key): (RMS, median)
+    of :func:`pivot_error_along_normal_m`, metres. The touches are made once for both fits."""
     from explorer.sim_profile import get_profile
     from robots.joint_calibration import ROBUST_RIDGE_M_PER_RAD, ROBUST_SCALE_M, SphereTouches, fit_joint_offsets
     from scripts.calibrate_joints import BALL_RADIUS_M, kinematic_touches
@@ -78,12 +79,15 @@ def score_design(robot: str, seed: int, spread: bool, link_lengths: bool, q_true
     q, quats, _, balls, truth, kinematics, true_lengths, _ = kinematic_touches(
         get_profile("hardware-like"), robot, 36, seed, spread=spread)
     first = (2 * len(q)) // 3
-    fit = fit_joint_offsets(kinematics, SphereTouches(q[:first], quats[:first], balls[:first], BALL_RADIUS_M),
-                            ridge_m_per_rad=ROBUST_RIDGE_M_PER_RAD, robust_scale_m=ROBUST_SCALE_M,
-                            link_lengths=link_lengths)
-    error = pivot_error_along_normal_m(kinematics, q_true, normals, truth, true_lengths, fit.offset_rad,
-                                       fit.link_length_error_m)
-    return float(np.sqrt(np.mean(error**2))), float(np.median(error))
+    touches = SphereTouches(q[:first], quats[:first], balls[:first], BALL_RADIUS_M)
+    scores = {}
+    for link_lengths in (False, True):
+        fit = fit_joint_offsets(kinematics, touches, ridge_m_per_rad=ROBUST_RIDGE_M_PER_RAD,
+                                robust_scale_m=ROBUST_SCALE_M, link_lengths=link_lengths)
+        error = pivot_error_along_normal_m(kinematics, q_true, normals, truth, true_lengths, fit.offset_rad,
+                                           fit.link_length_error_m)
+        scores[link_lengths] = (float(np.sqrt(np.mean(error**2))), float(np.median(error)))
+    return scores
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -109,13 +113,18 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError as error:
             parser.error(str(error))
         pools.setdefault(robot, []).append((q_true, normals))
+    scored = {}  # (poses, link lengths, robot) -> (seeds, 2) metres
+    for robot, parts in sorted(pools.items()):
+        q_true, normals = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+        for poses in dict(DESIGNS):
+            per_seed = [score_poses(robot, seed, poses == "spread", q_true, normals) for seed in seeds]
+            for link_lengths in (False, True):
+                scored[poses, link_lengths, robot] = (np.array([s[link_lengths] for s in per_seed]), len(q_true))
     results = []
     for poses, link_lengths in DESIGNS:
-        for robot, parts in sorted(pools.items()):
-            q_true, normals = np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
-            scores = np.array([score_design(robot, seed, poses == "spread", link_lengths, q_true, normals)
-                               for seed in seeds])
-            results.append(dict(poses=poses, link_lengths=link_lengths, robot=robot, contacts=len(q_true),
+        for robot in sorted(pools):
+            scores, contacts = scored[poses, link_lengths, robot]
+            results.append(dict(poses=poses, link_lengths=link_lengths, robot=robot, contacts=contacts,
                                 seeds=seeds, rms_mm=(1e3 * scores[:, 0]).round(3).tolist(),
                                 median_mm=(1e3 * scores[:, 1]).round(3).tolist()))
     print("| poses | link lengths | robot | contacts | RMS along the normal, mean / worst seed (mm) | "
