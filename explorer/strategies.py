@@ -8,8 +8,9 @@ loop plans them in order (and may weigh them by motion cost) and takes the first
 * ``random`` - uniformly random directions, same rays;
 * ``variance`` - the GPIS posterior variance is largest on / near the current 0-level set; the pad
   approaches along the inward normal of the current surface there (the uncertainty-reducing
-  exploration of the reference work). Its first touches, before the GPIS has a surface, are
-  ``uniform`` ones.
+  exploration of the reference work), or, where the GPIS has no normal yet, along the free way in
+  nearest to the prior centre's direction (:func:`clear_approach`). Its first touches, before the
+  GPIS has a surface, are ``uniform`` ones.
 """
 from __future__ import annotations
 
@@ -117,6 +118,51 @@ def _not_near(points: np.ndarray, avoid: list[np.ndarray], radius_m: float) -> n
     return d.min(1) > radius_m
 
 
+def clear_approach(gp: GPIS, target: np.ndarray, preferred: np.ndarray, path_m: float = 0.045,
+                   pad_half_width_m: float = 0.009, directions: int = 64, samples: int = 8) -> np.ndarray:
+    """The approach to ``target`` nearest to ``preferred`` whose way in the GPIS calls free.
+
+    Where the GPIS gradient says nothing (a region it has not resolved, such as the inside of a
+    cup it has filled in), the loop used to aim at the prior centre; from outside a cup that line
+    meets the cup's outer wall, already touched, before it reaches the target. Here the pad's way
+    in, from ``path_m`` before the target to a few millimetres before it (the centre line and the
+    pad's four edge midpoints, ``pad_half_width_m`` to each side), must have a negative posterior
+    mean everywhere (outside the current reconstruction), among ``preferred`` and ``directions``
+    Fibonacci directions; the one nearest to ``preferred`` is taken. Where none is free (a cavity
+    the GPIS has filled), the way in with the lowest largest mean: the least solid one.
+
+    Parameters
+    ----------
+    gp : GPIS
+    target : (3,) float
+        Object frame, metres.
+    preferred : (3,) float
+        Direction of travel wanted when it is free (need not be unit length).
+    path_m : float
+        Length of the way in that must be free: the planner's standoff (30 mm) plus the pad's height.
+
+    Returns
+    -------
+    (3,) float
+        Unit direction of travel.
+    """
+    preferred = np.asarray(preferred, float) / np.linalg.norm(preferred)
+    candidates = np.vstack([preferred[None], fibonacci_directions(directions)])
+    helper = np.where(np.abs(candidates[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+    side_1 = np.cross(candidates, helper)
+    side_1 /= np.linalg.norm(side_1, axis=1, keepdims=True)
+    side_2 = np.cross(candidates, side_1)
+    offsets = np.stack([np.zeros_like(side_1), side_1, -side_1, side_2, -side_2], 1) * pad_half_width_m
+    back = np.linspace(0.15 * path_m, path_m, samples)
+    points = (target[None, None, None] - back[None, None, :, None] * candidates[:, None, None]
+              + offsets[:, :, None])                                       # (d, 5, samples, 3)
+    clearance = gp.mean(points.reshape(-1, 3)).astype(float).reshape(len(candidates), -1).max(1)
+    free = np.flatnonzero(clearance < 0.0)
+    if len(free) == 0:
+        return candidates[int(np.argmin(clearance))]
+    return candidates[free[np.argmax(candidates[free] @ preferred)]]
+
+
 class UniformStrategy(TouchStrategy):
     """Evenly spread directions around the object, visited far-from-previous first.
 
@@ -187,14 +233,18 @@ class VarianceStrategy(TouchStrategy):
         prior centre instead of along the gradient.
     shortlist : int
         Highest-variance candidates projected onto the surface and checked per proposal.
+    clear_unresolved : bool
+        Where the gradient is below ``min_gradient``, approach along :func:`clear_approach` (the
+        free way in nearest to the prior centre's direction) instead of straight at the centre.
     """
 
     name = "variance"
 
     def __init__(self, grid: int = 24, initial_touches: int = 6, separation_m: float = 0.015,
                  avoid_radius_m: float = 0.01, min_gradient: float = 0.5, shortlist: int = 400,
-                 passed_radius_m: float = 0.018):
+                 passed_radius_m: float = 0.018, clear_unresolved: bool = True):
         self.grid = grid
+        self.clear_unresolved = clear_unresolved
         self.passed_radius_m = passed_radius_m
         self.shortlist = shortlist
         self.min_gradient = min_gradient
@@ -231,7 +281,8 @@ class VarianceStrategy(TouchStrategy):
             near = np.abs(mean) <= np.sort(np.abs(mean))[min(50, len(mean) - 1)]
         return self._candidates[near], variance[near]
 
-    def projected_candidates(self, state: ExplorationState) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def projected_candidates(self, state: ExplorationState
+                             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The ``shortlist`` most uncertain near-surface candidates, moved onto the surface.
 
         Returns
@@ -245,6 +296,8 @@ class VarianceStrategy(TouchStrategy):
             Posterior variance at the candidate before the step, largest first.
         surface : (m, 3) float
             All near-surface candidates (the surface the variance is integrated over).
+        resolved : (k,) bool
+            Where the gradient was large enough to give the approach (False: aimed at the centre).
         """
         gp = state.gpis
         points, variance = self.surface_variance(state)
@@ -262,10 +315,15 @@ class VarianceStrategy(TouchStrategy):
                            candidates)
         towards = state.prior.centre_m - candidates
         approach = np.where(surface_like[:, None], grads / safe[:, None], towards)
-        return targets, approach, variance[order], points
+        return targets, approach, variance[order], points, surface_like
 
-    def _ranked_touches(self, targets, approach, scores, state: ExplorationState, count: int) -> list[Touch]:
-        """Touches in descending ``scores``, away from avoided targets and from each other."""
+    def _ranked_touches(self, targets, approach, scores, state: ExplorationState, count: int,
+                        resolved: np.ndarray | None = None) -> list[Touch]:
+        """Touches in descending ``scores``, away from avoided targets and from each other.
+
+        A touch whose approach the gradient did not give (``resolved`` False) comes in along
+        :func:`clear_approach` when ``clear_unresolved`` is set.
+        """
         avoid = state.unreachable_m + state.tried_m
         keep = (_not_near(targets, avoid, self.avoid_radius_m) & _not_near(targets, state.passed_m, self.passed_radius_m)
                 & (np.linalg.norm(approach, axis=1) > 1e-9))
@@ -273,7 +331,10 @@ class VarianceStrategy(TouchStrategy):
         for i in np.flatnonzero(keep)[np.argsort(-scores[keep], kind="stable")]:
             if any(np.linalg.norm(targets[i] - t.target_m) < self.separation_m for t in touches):
                 continue
-            touches.append(Touch(targets[i], approach[i], float(scores[i]), self.name))
+            direction = approach[i]
+            if self.clear_unresolved and resolved is not None and not resolved[i]:
+                direction = clear_approach(state.gpis, targets[i], direction)
+            touches.append(Touch(targets[i], direction, float(scores[i]), self.name))
             if len(touches) == count:
                 break
         return touches
@@ -282,8 +343,9 @@ class VarianceStrategy(TouchStrategy):
         gp = state.gpis
         if gp is None or gp.n_contacts < self.initial_touches or state.touches < self.initial_touches:
             return self._uniform.propose(state, count)
-        targets, approach, variance, _ = self.projected_candidates(state)
-        return self._ranked_touches(targets, approach, variance, state, count) or self._uniform.propose(state, count)
+        targets, approach, variance, _, resolved = self.projected_candidates(state)
+        return (self._ranked_touches(targets, approach, variance, state, count, resolved)
+                or self._uniform.propose(state, count))
 
 
 def contact_rows_noise(gp: GPIS, targets: np.ndarray, normals: np.ndarray) -> np.ndarray:
@@ -522,7 +584,7 @@ class EfficientStrategy(VarianceStrategy):
         if (gp is None or gp.n_contacts < self.initial_touches or state.touches < self.initial_touches
                 or not gp.positive_definite):
             return self.face_touches(state, count) or super().propose(state, count)
-        targets, approach, _, surface = self.projected_candidates(state)
+        targets, approach, _, surface, _ = self.projected_candidates(state)
         length = np.linalg.norm(approach, axis=1)
         targets, approach = targets[length > 1e-9], approach[length > 1e-9] / length[length > 1e-9, None]
         if len(surface) > self.surface_samples:

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from explorer.strategies import (ExplorationState, RandomStrategy, UniformStrategy, VarianceStrategy,
-                                 farthest_point_order, fibonacci_directions, make_strategy)
+                                 clear_approach, farthest_point_order, fibonacci_directions, make_strategy)
 from explorer.touch import ObjectPrior, Touch, TouchOutcome
 from reconstruction.gpis import GPIS
 
@@ -112,3 +112,59 @@ def test_unknown_strategy_and_bad_touches():
         Touch(np.zeros(3), np.zeros(3))
     with pytest.raises(ValueError, match="positive"):
         ObjectPrior(np.zeros(3), np.array([0.1, 0.0, 0.1]))
+
+
+def _open_box(outer=0.08, wall=0.01, height=0.06):
+    """A cup: a box open at the top (+z), walls and floor ``wall`` thick, centred at the origin."""
+    import trimesh
+    body = trimesh.creation.box((outer, outer, height))
+    cavity = trimesh.creation.box((outer - 2 * wall, outer - 2 * wall, height))
+    cavity.apply_translation((0, 0, wall))
+    return trimesh.boolean.difference([body, cavity], engine="manifold")
+
+
+def test_clear_approach_enters_a_cup_through_its_opening():
+    """A target in a cup, preferred from the side: that way in crosses the wall; the chosen one
+    comes down through the opening and its path (centre and pad edges) misses the true cup."""
+    from reconstruction.synthetic_contacts import sample_contacts
+    cup = _open_box()
+    points, normals, _, _ = sample_contacts(cup, 400, seed=3)
+    gp = GPIS(bounds=PRIOR.bounds()).fit(points, normals)
+    target = np.array([0.0, 0.0, 0.0])
+    preferred = np.array([1.0, 0.0, 0.0])
+    side_path = target[None] - np.linspace(0.007, 0.045, 20)[:, None] * preferred
+    assert cup.contains(side_path).any()                         # the preferred way crosses the wall
+    u = clear_approach(gp, target, preferred)
+    assert np.linalg.norm(u) == pytest.approx(1.0)
+    assert u[2] < -0.5                                           # comes down from above
+    e1 = np.cross(u, [0.0, 1.0, 0.0]) if abs(u[1]) < 0.9 else np.cross(u, [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(u, e1)
+    back = np.linspace(0.007, 0.045, 20)[:, None]
+    for offset in (0.0 * e1, 0.009 * e1, -0.009 * e1, 0.009 * e2, -0.009 * e2):
+        assert not cup.contains(target[None] - back * u + offset).any()
+
+
+def test_clear_approach_keeps_a_free_preferred_direction():
+    d = fibonacci_directions(80)
+    gp = _sphere_gp(d)
+    target = np.array([0.0, 0.0, 0.04])
+    preferred = np.array([0.0, 0.0, -2.0])                       # straight down onto the top: free
+    np.testing.assert_allclose(clear_approach(gp, target, preferred), [0.0, 0.0, -1.0])
+    blocked = clear_approach(gp, np.array([0.0, 0.0, -0.04]), np.array([0.0, 0.0, -1.0]))
+    assert blocked[2] > 0.2                                      # the bottom is reached from below
+
+
+def test_variance_strategy_turns_only_unresolved_approaches_to_a_clear_way_in():
+    from reconstruction.synthetic_contacts import sample_contacts
+    points, normals, _, _ = sample_contacts(_open_box(), 400, seed=3)
+    state = ExplorationState(PRIOR, GPIS(bounds=PRIOR.bounds()).fit(points, normals), touches=40)
+    targets = np.array([[0.0, 0.0, 0.0], [0.0, 0.03, 0.0]])
+    sideways = np.array([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    scores = np.array([2.0, 1.0])
+    turned = VarianceStrategy()._ranked_touches(targets, sideways, scores, state, 2, np.array([False, True]))
+    assert turned[0].approach_dir[2] < -0.5                      # unresolved: down through the opening
+    np.testing.assert_allclose(turned[1].approach_dir, [1.0, 0.0, 0.0])   # resolved: as given
+    kept = VarianceStrategy(clear_unresolved=False)._ranked_touches(targets, sideways, scores, state, 2,
+                                                                    np.array([False, True]))
+    np.testing.assert_allclose(kept[0].approach_dir, [1.0, 0.0, 0.0])
