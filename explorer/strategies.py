@@ -118,6 +118,15 @@ def _not_near(points: np.ndarray, avoid: list[np.ndarray], radius_m: float) -> n
     return d.min(1) > radius_m
 
 
+def perpendicular_frame(directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two (k, 3) unit vectors perpendicular to each of the (k, 3) unit ``directions`` and to each
+    other (right-handed with it)."""
+    helper = np.where(np.abs(directions[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+    first = np.cross(directions, helper)
+    first /= np.linalg.norm(first, axis=1, keepdims=True)
+    return first, np.cross(directions, first)
+
+
 def clear_approach(gp: GPIS, target: np.ndarray, preferred: np.ndarray, path_m: float = 0.045,
                    pad_half_width_m: float = 0.009, directions: int = 64, samples: int = 8) -> np.ndarray:
     """The approach to ``target`` nearest to ``preferred`` whose way in the GPIS calls free.
@@ -148,10 +157,7 @@ def clear_approach(gp: GPIS, target: np.ndarray, preferred: np.ndarray, path_m: 
     """
     preferred = np.asarray(preferred, float) / np.linalg.norm(preferred)
     candidates = np.vstack([preferred[None], fibonacci_directions(directions)])
-    helper = np.where(np.abs(candidates[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
-    side_1 = np.cross(candidates, helper)
-    side_1 /= np.linalg.norm(side_1, axis=1, keepdims=True)
-    side_2 = np.cross(candidates, side_1)
+    side_1, side_2 = perpendicular_frame(candidates)
     offsets = np.stack([np.zeros_like(side_1), side_1, -side_1, side_2, -side_2], 1) * pad_half_width_m
     back = np.linspace(0.15 * path_m, path_m, samples)
     points = (target[None, None, None] - back[None, None, :, None] * candidates[:, None, None]
@@ -410,10 +416,7 @@ def normal_spread_rad(gp: GPIS, targets: np.ndarray, inward: np.ndarray, radius_
     """(k,) largest angle between the GPIS normal at each target and at points ``radius_m`` away
     on the surface (one Newton step), radians: large on edges, rims and tight curvature, where a
     pad of that radius does not lie flat."""
-    a = np.where(np.abs(inward[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
-    t1 = np.cross(inward, a)
-    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
-    t2 = np.cross(inward, t1)
+    t1, t2 = perpendicular_frame(inward)
     angles = 2 * np.pi * np.arange(directions) / directions
     ring = targets[:, None] + radius_m * (np.cos(angles)[None, :, None] * t1[:, None]
                                           + np.sin(angles)[None, :, None] * t2[:, None])

@@ -123,13 +123,19 @@ def _open_box(outer=0.08, wall=0.01, height=0.06):
     return trimesh.boolean.difference([body, cavity], engine="manifold")
 
 
-def test_clear_approach_enters_a_cup_through_its_opening():
-    """A target in a cup, preferred from the side: that way in crosses the wall; the chosen one
-    comes down through the opening and its path (centre and pad edges) misses the true cup."""
+@pytest.fixture(scope="module")
+def cup_and_gp():
+    """The open box and a GPIS fitted to 400 sampled contacts on it."""
     from reconstruction.synthetic_contacts import sample_contacts
     cup = _open_box()
     points, normals, _, _ = sample_contacts(cup, 400, seed=3)
-    gp = GPIS(bounds=PRIOR.bounds()).fit(points, normals)
+    return cup, GPIS(bounds=PRIOR.bounds()).fit(points, normals)
+
+
+def test_clear_approach_enters_a_cup_through_its_opening(cup_and_gp):
+    """A target in a cup, preferred from the side: that way in crosses the wall; the chosen one
+    comes down through the opening and its path (centre and pad edges) misses the true cup."""
+    cup, gp = cup_and_gp
     target = np.array([0.0, 0.0, 0.0])
     preferred = np.array([1.0, 0.0, 0.0])
     side_path = target[None] - np.linspace(0.007, 0.045, 20)[:, None] * preferred
@@ -155,10 +161,8 @@ def test_clear_approach_keeps_a_free_preferred_direction():
     assert blocked[2] > 0.2                                      # the bottom is reached from below
 
 
-def test_variance_strategy_turns_only_unresolved_approaches_to_a_clear_way_in():
-    from reconstruction.synthetic_contacts import sample_contacts
-    points, normals, _, _ = sample_contacts(_open_box(), 400, seed=3)
-    state = ExplorationState(PRIOR, GPIS(bounds=PRIOR.bounds()).fit(points, normals), touches=40)
+def test_variance_strategy_turns_only_unresolved_approaches_to_a_clear_way_in(cup_and_gp):
+    state = ExplorationState(PRIOR, cup_and_gp[1], touches=40)
     targets = np.array([[0.0, 0.0, 0.0], [0.0, 0.03, 0.0]])
     sideways = np.array([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
     scores = np.array([2.0, 1.0])
