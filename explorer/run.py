@@ -14,7 +14,9 @@ and at the end (also after an interruption, from what was recorded):
                          ground truth (and ``reach_samples`` > 0) ``reach_breakdown`` (:class:`explorer.coverage.ReachBreakdown`:
                          surface fractions where the pad does not fit, the arm cannot reach, the stand
                          hides it, reachable but untouched, touched), ``reachable_fraction`` and
-                         ``coverage_ceiling`` (the most coverage the run's contacts could give);
+                         ``coverage_ceiling`` (the most coverage the run's contacts could give), and
+                         ``coverage_placed`` (what as many contacts placed greedily on the true surface
+                         cover, the arm ignored: :func:`explorer.coverage.placed_coverage`);
 * ``reconstruction_error.png``, ``error_vs_touches.png``, ``potential_slice.png``.
 """
 from __future__ import annotations
@@ -31,7 +33,7 @@ import numpy as np
 from explorer.evaluation import jsonable
 from explorer.config import ExplorationConfig
 from explorer.contact import LOOP_SETTLING
-from explorer.coverage import coverage_ceiling, reach_breakdown
+from explorer.coverage import coverage_ceiling, placed_coverage, reach_breakdown
 from explorer.loop import ExplorationLoop, LoopConfig
 from explorer.observer import ObservedStrategy
 from explorer.outputs import add_errors, write_figures, write_json, write_mesh
@@ -318,6 +320,7 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
             metrics["reach_breakdown"] = reach.as_dict()
         if truth is not None:
             metrics["coverage_ceiling"] = coverage_ceiling(truth, len(contacts))
+            metrics["coverage_placed"] = placed_coverage(truth, len(contacts))
         if mesh is not None:
             curve_points = [(c["touches"], c["position_rmse_mm"], c["normal_rmse_deg"]) for c in metrics["error_curve"]]
             try:

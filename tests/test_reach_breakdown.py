@@ -99,3 +99,28 @@ def test_coverage_ceiling_is_contacts_times_a_cap_on_a_sphere_and_caps_at_one():
     assert 10 * cap_share * 0.97 < ceiling < 10 * cap_share * 1.25   # the largest of noisy counts: upwards
     assert coverage_ceiling(sphere, 10_000) == 1.0
     assert coverage_ceiling(sphere, 0) == 0.0
+
+
+def test_placed_coverage_covers_a_cap_per_contact_and_beats_a_random_placement():
+    from scipy.spatial import cKDTree
+
+    from explorer.coverage import coverage_ceiling, placed_coverage
+
+    sphere = trimesh.creation.icosphere(subdivisions=5, radius=0.1)
+    cap_share = np.pi * 0.01**2 / (4 * np.pi * 0.1**2)   # closed form: a 1 cm ball cuts a cap of area pi r^2
+    # ten caps far apart: a count of about 1,000 fresh samples, binomial noise about 3 %
+    assert 10 * cap_share * 0.88 < placed_coverage(sphere, 10, per_disc=400) < 10 * cap_share * 1.12
+    assert placed_coverage(sphere, 0) == 0.0
+    assert placed_coverage(sphere, 10_000) > 0.97   # every sample of the greedy covered; fresh ones in its gaps may not be
+
+    # A random placement of as many contacts, scored the same way, covers less; and no placement beats
+    # the ceiling (beyond the two samplings' own noise).
+    box = trimesh.creation.box(extents=(0.12, 0.08, 0.03))
+    samples, _ = trimesh.sample.sample_surface_even(box, 20_000, seed=3)
+    rng = np.random.default_rng(4)
+    for n in (5, 20, 60):
+        placed = placed_coverage(box, n)
+        contacts = samples[rng.choice(len(samples), n, replace=False)]
+        random_coverage = np.mean(cKDTree(contacts).query(samples)[0] <= 0.01)
+        assert random_coverage < placed <= 1.05 * coverage_ceiling(box, n)
+    assert placed_coverage(box, 20) < placed_coverage(box, 60)

@@ -101,3 +101,6 @@ def test_a_simulated_rig_from_a_configuration_keeps_the_object_in_place(tmp_path
         assert abs(np.linalg.norm(record.position_m) - radius) < 1.5e-3
     assert result.metrics["backend"] == "robot sim, sensor sim"
     assert "reach_breakdown" not in result.metrics and "coverage_ceiling" in result.metrics  # skipped: 0 samples
+    # as many contacts placed on the truth cover at least what the run's did, and no more than the ceiling
+    m = result.metrics
+    assert m["coverage"] - 0.05 <= m["coverage_placed"] <= 1.05 * m["coverage_ceiling"]
