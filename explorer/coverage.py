@@ -313,9 +313,9 @@ def placed_coverage(mesh, contacts: int, radius_m: float = 0.01, per_disc: int =
     A reference for a run's coverage that, unlike :func:`coverage_ceiling`, is achieved by an actual
     placement: each contact in turn goes to the surface sample that covers the most samples not yet
     within ``radius_m`` of a contact (greedy maximum coverage, at least ``1 - 1/e`` of the best
-    placement; on these shapes within a few per cent of it). Where it stays below a coverage target,
-    no exploration with this many contacts reaches the target; above it, the gap to the run's
-    coverage is the placement's (and the reach's, which this ignores).
+    placement). It is what a placement that knew the shape achieves, not a bound: that is
+    :func:`coverage_ceiling`. A run below it could have placed its contacts better (or could not
+    reach there, which this ignores).
 
     Parameters
     ----------
