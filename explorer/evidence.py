@@ -29,11 +29,17 @@ class SurfaceEvidence:
     side_press_value, side_press_noise : float or None
         Implicit-function value (and its standard deviation) at the pad-face centre of a press on
         the pad's side; None: such presses add nothing.
+    probe_corridor_m : float or None
+        A contact met more than this far past its target (a probe through surface the field had
+        guessed) also adds the line its pad swept on the way (:meth:`add_swept`, gated): the
+        corridor it showed to be free. None: contacts add only themselves.
     """
 
     def __init__(self, gpis: GPIS, free_space_value: float, free_space_noise: float,
-                 side_press_value: float | None = None, side_press_noise: float | None = None):
+                 side_press_value: float | None = None, side_press_noise: float | None = None,
+                 probe_corridor_m: float | None = None):
         self.gpis = gpis
+        self.probe_corridor_m = probe_corridor_m
         self.free_space_value = free_space_value
         self.free_space_noise = free_space_noise
         self.side_press_value = side_press_value
@@ -63,6 +69,8 @@ class SurfaceEvidence:
         if record.kind == "contact":
             doubtful = getattr(record.quality, "doubtful", False)
             self.add_contact(record.position_m, record.normal, doubtful_normal_noise if doubtful else None)
+            if self.probe_corridor_m is not None and record.past_target_m() > self.probe_corridor_m:
+                self.add_swept(record.swept_points(-self.free_space_value))
         elif record.kind == "miss":
             if misses and record.free_space_m is not None:
                 self.add_free_space(record.free_space_m)
@@ -74,7 +82,7 @@ class SurfaceEvidence:
         order (:meth:`add_touch`): the field again from the recorded touches, or (``misses`` False)
         without the misses' rows, which cannot be taken out of a factor."""
         evidence = SurfaceEvidence(self.gpis.unfitted_copy(), self.free_space_value, self.free_space_noise,
-                                   self.side_press_value, self.side_press_noise)
+                                   self.side_press_value, self.side_press_noise, self.probe_corridor_m)
         for record in records:
             evidence.add_touch(record, doubtful_normal_noise, misses)
         return evidence

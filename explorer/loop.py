@@ -158,6 +158,12 @@ class LoopConfig:
         (:func:`explorer.evidence.with_swept_free_space`): the probe past a phantom lid or through a
         ring's closed hole. The loop's own field, which the strategy explores, does not. False: runs
         before 2026-11-27.
+    probe_corridor_m : float or None
+        A contact met more than this far past its target also tells the loop's own field (the one
+        the strategy explores) that the line its pad swept there is free, where the field put
+        surface nearer (:class:`explorer.evidence.SurfaceEvidence`): a probe through a guessed
+        surface that ended on a wall already touched then steers the next probe away from the
+        same corridor. None: off.
     reconstruction_free_space_noise : float or None
         Standard deviation of those rows: firmer than the loop's ``free_space_noise`` (a miss's rows),
         since a row is only added where the final field still puts surface inside the line the pad
@@ -254,6 +260,7 @@ class LoopConfig:
     drop_released_presses: bool = True
     release_at_contact_threshold: bool = True
     swept_free_space: bool = True
+    probe_corridor_m: float | None = None
     reconstruction_free_space_noise: float | None = 0.002
     reconstruction_gates_misses: bool = True
     line_tolerance_m: float | None = 0.005
@@ -315,7 +322,7 @@ class LoopConfig:
     def evidence(self, gpis: GPIS) -> SurfaceEvidence:
         """What touches add to ``gpis`` under these settings."""
         return SurfaceEvidence(gpis, self.free_space_value, self.free_space_noise, self.side_press_value,
-                               self.side_press_noise)
+                               self.side_press_noise, self.probe_corridor_m)
 
     def doubt_rule(self) -> DoubtRule:
         """The doubtful-contact rule of these settings."""
@@ -551,14 +558,10 @@ class ExplorationLoop:
             record.kind = "realign"
             self._follow_up = Touch(record.position_m, -record.normal, strategy="realign",
                                     depth_m=self.planner.config.depth_m)
-        if record.kind == "contact":
-            self._update_gpis(record.position_m, record.normal, self._normal_noise(record))
-        elif record.kind == "miss":
+        if record.kind == "miss":
             swept = self._swept(plan, approach.q)
             record.free_space_m = self.evidence.inside_bounds(self.positioner.to_object(swept))
-            self._add_free_space(record.free_space_m)
-        elif record.side_m is not None:
-            self._add_side_press(record.side_m)
+        self._add_evidence(record)
         return record
 
     def _touched_points(self) -> np.ndarray:
@@ -859,25 +862,10 @@ class ExplorationLoop:
         self._collect()
         return self.contact_pipeline.settled(self._contact_readings, self._baseline_pa)
 
-    def _normal_noise(self, record: TouchOutcome) -> float | None:
-        """The GPIS normal noise floor of a contact: ``doubtful_normal_noise`` if doubtful."""
-        return self.config.doubtful_normal_noise if getattr(record.quality, "doubtful", False) else None
-
-    def _update_gpis(self, point: np.ndarray, normal: np.ndarray, normal_noise: float | None = None) -> None:
+    def _add_evidence(self, record: TouchOutcome) -> None:
+        """What the touch tells the loop's field, as resume and replay add it."""
         t0 = time.perf_counter()
-        self.evidence.add_contact(point, normal, normal_noise)
-        self.times.gpis_s += time.perf_counter() - t0
-
-    def _add_free_space(self, points: np.ndarray) -> None:
-        """The swept points (object frame) are outside the object."""
-        t0 = time.perf_counter()
-        self.evidence.add_free_space(points)
-        self.times.gpis_s += time.perf_counter() - t0
-
-    def _add_side_press(self, pad_m: np.ndarray) -> None:
-        """A press on the pad's side was made with the pad-face centre at ``pad_m`` (object frame)."""
-        t0 = time.perf_counter()
-        self.evidence.add_side_press(pad_m)
+        self.evidence.add_touch(record, self.config.doubtful_normal_noise)
         self.times.gpis_s += time.perf_counter() - t0
 
     def _joint_speed(self, plan: ApproachPlan) -> float:

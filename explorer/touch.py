@@ -155,6 +155,13 @@ class TouchOutcome:
         frame. Empty without a contact position or when the contact came before that."""
         return self._line_before(self.position_m, margin_m, spacing_m)
 
+    def past_target_m(self) -> float:
+        """How far along its approach the contact lies beyond the target, metres (negative: before
+        it); 0 without a contact position."""
+        if self.position_m is None:
+            return 0.0
+        return float((np.asarray(self.position_m) - self.target_m) @ self.approach_dir)
+
     def swept_points(self, margin_m: float, spacing_m: float = 0.01) -> np.ndarray:
         """:meth:`passed_points` of a contact the GPIS takes (kind ``contact``) or of a press on the
         pad's side (kind ``no_normal``, up to ``side_m``); empty for any other touch."""

@@ -1,6 +1,7 @@
 """What each kind of touch adds to the GPIS (explorer/evidence.py), checked against a GPIS given the
 same rows directly."""
 import numpy as np
+import pytest
 
 from explorer.evidence import SurfaceEvidence
 from reconstruction.gpis import GPIS
@@ -103,6 +104,44 @@ def test_the_swept_line_ends_a_margin_short_of_a_contact_or_a_side_press_and_is_
         touch = TouchOutcome(2, kind, target, approach, position_m=np.array([0.0, 0.0, 0.0]))
         assert touch.swept_points(0.009).shape == (0, 3)
     assert TouchOutcome(3, "no_normal", target, approach).swept_points(0.009).shape == (0, 3)
+
+
+def test_a_contact_far_past_its_target_frees_its_probe_corridor_in_the_field():
+    """The pad went from a target inside the guessed sphere 7 cm down through it to a contact on
+    the far side: with ``probe_corridor_m`` 3 cm its swept line joins the field through the gate,
+    as :meth:`SurfaceEvidence.add_swept` adds it; a contact 2 cm past its target, or the option
+    off, adds the contact alone."""
+    from explorer.touch import TouchOutcome
+
+    down = np.array([0.0, 0.0, -1.0])
+    far = TouchOutcome(0, "contact", np.array([0.0, 0.0, 0.03]), down, position_m=np.array([0.0, 0.0, -0.04]),
+                       normal=down)
+    near = TouchOutcome(1, "contact", np.array([0.0, 0.0, -0.02]), down, position_m=np.array([0.0, 0.0, -0.04]),
+                        normal=down)
+    assert far.past_target_m() == pytest.approx(0.07) and near.past_target_m() == pytest.approx(0.02)
+
+    def evidence(corridor_m):
+        out = _sphere_evidence()
+        out.probe_corridor_m = corridor_m
+        return out
+
+    on, off = evidence(0.03), evidence(None)
+    rows = on.gpis.n_rows
+    line = far.swept_points(0.009)
+    inside = on.gpis.mean(line) > -0.009
+    assert inside.sum() >= 3
+    on.add_touch(far, doubtful_normal_noise=0.5)
+    off.add_touch(far, doubtful_normal_noise=0.5)
+    assert off.gpis.n_rows == rows + 4 and on.gpis.n_rows == rows + 4 + inside.sum()
+    direct = _sphere_evidence()
+    direct.add_contact(far.position_m, far.normal)
+    direct.add_swept(line)
+    np.testing.assert_allclose(on.gpis.mean(_queries()), direct.gpis.mean(_queries()), rtol=0, atol=1e-12)
+    assert np.all(on.gpis.mean(line[inside]) < off.gpis.mean(line[inside]))
+    short = evidence(0.03)
+    short.add_touch(near, doubtful_normal_noise=0.5)
+    assert short.gpis.n_rows == rows + 4
+    assert on.rebuilt([far], doubtful_normal_noise=0.5).probe_corridor_m == 0.03
 
 
 def _records():
