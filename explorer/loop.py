@@ -171,6 +171,13 @@ class LoopConfig:
         split showed misses whose pad had been dragged around a tool's handle, off their line
         (``line_tolerance_m``; BENCHMARKS.md, "Firmer free space in the reconstruction"). None:
         ``free_space_noise`` (runs before 2026-11-27).
+    reconstruction_tightens_doubtful : bool
+        In the reconstruction's field a doubtful contact (normal-noise floor ``doubtful_normal_noise``)
+        with an opposing contact within the GPIS's ``opposing_radius_m`` gets the GPIS's
+        ``opposing_normal_noise`` like any other contact there (``GPIS.opposing_overrides_floor``):
+        with its floor the two sides of a thin wall part where one side was doubtful. The loop's
+        own field keeps the floor. Chosen on the tuning split (BENCHMARKS.md, "A doubtful contact
+        on a thin wall"). False: runs recorded before this setting.
     reconstruction_gates_misses : bool
         The reconstruction takes a miss's free space as it takes the swept lines: only where the
         final field puts surface nearer than ``-free_space_value``, at
@@ -263,6 +270,7 @@ class LoopConfig:
     probe_corridor_m: float | None = None
     reconstruction_free_space_noise: float | None = 0.002
     reconstruction_gates_misses: bool = True
+    reconstruction_tightens_doubtful: bool = True
     line_tolerance_m: float | None = 0.005
     stop_off_line: bool = False
     loose_settle_deviation_rad: float | None = float(np.radians(1.5))
@@ -297,12 +305,17 @@ class LoopConfig:
     def reconstruction_field(self, gpis: GPIS, records, pad_half_width_m: float) -> tuple[GPIS, int]:
         """The field the run's reconstruction is meshed from and the number of free-space rows it
         adds: ``gpis`` rebuilt from :meth:`reconstruction_records` (without the misses' rows when
-        ``reconstruction_gates_misses``) plus the gated rows of ``swept_free_space``. ``gpis`` itself
-        is unchanged; with neither bridged contacts nor swept rows nor gated misses it is the field."""
+        ``reconstruction_gates_misses``; its doubtful contacts on thin walls tightened with
+        ``reconstruction_tightens_doubtful``) plus the gated rows of ``swept_free_space``. ``gpis``
+        itself is unchanged; with none of these settings it is the field."""
         records, bridged = self.reconstruction_records(records, pad_half_width_m, gpis.use_normals)
         gated_misses = self.reconstruction_gates_misses and self.swept_free_space
-        if gated_misses or bridged:
-            gpis = self.evidence(gpis).rebuilt(records, self.doubtful_normal_noise, misses=not gated_misses).gpis
+        tighten = (self.reconstruction_tightens_doubtful and not gpis.opposing_overrides_floor
+                   and any(r.kind == "contact" and getattr(r.quality, "doubtful", False) for r in records))
+        if gated_misses or bridged or tighten:
+            settings = gpis.unfitted_copy()
+            settings.opposing_overrides_floor |= self.reconstruction_tightens_doubtful
+            gpis = self.evidence(settings).rebuilt(records, self.doubtful_normal_noise, misses=not gated_misses).gpis
         if not self.swept_free_space:
             return gpis, 0
         noise = self.free_space_noise if self.reconstruction_free_space_noise is None else self.reconstruction_free_space_noise

@@ -312,6 +312,8 @@ class SessionReplay:
             self.loop_config = replace(self.loop_config, reconstruction_free_space_noise=None)
         if "reconstruction_gates_misses" not in recorded_loop:  # meshed with the loop's miss rows
             self.loop_config = replace(self.loop_config, reconstruction_gates_misses=False)
+        if "reconstruction_tightens_doubtful" not in recorded_loop:  # a doubtful contact kept its floor
+            self.loop_config = replace(self.loop_config, reconstruction_tightens_doubtful=False)
         if "probe_corridor_m" not in recorded_loop:  # recorded before the loop's field took probe corridors
             self.loop_config = replace(self.loop_config, probe_corridor_m=None)
         if "bridge_concave_contacts" not in recorded_loop:  # meshed with the contacts as measured

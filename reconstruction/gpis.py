@@ -56,6 +56,9 @@ class GPIS:
         a pair is tightened (rows in the factor keep their noise); :meth:`fit` tightens both.
     opposing_radius_m : float
         The neighbourhood of ``opposing_normal_noise``, metres.
+    opposing_overrides_floor : bool
+        A contact given a normal-noise floor (a doubtful one, ``add``/``fit`` ``normal_noise``)
+        that has an opposing neighbour gets ``opposing_normal_noise`` too. False: the floor wins.
     normal_noise : float
         Standard deviation of each gradient component of the normal observations (unitless;
         0.1 is about a 6 deg direction error). The default, 0.2, is twice the sensor's error: a
@@ -73,7 +76,8 @@ class GPIS:
     def __init__(self, kernel: str | Kernel = "thin_plate", noise: float = 5e-4,
                  normal_noise: float = 0.2, use_normals: bool = True,
                  bounds: Sequence[Sequence[float]] | None = None, trend: float | None = 3.0,
-                 opposing_normal_noise: float | None = 0.05, opposing_radius_m: float = 0.015):
+                 opposing_normal_noise: float | None = 0.05, opposing_radius_m: float = 0.015,
+                 opposing_overrides_floor: bool = False):
         if isinstance(kernel, str) and kernel not in kernel_names():
             raise ValueError(f"unknown kernel {kernel!r}; choose one of {', '.join(kernel_names())} "
                              "or pass a Kernel instance")
@@ -92,6 +96,7 @@ class GPIS:
             raise ValueError(f"opposing_radius_m must be a positive length, got {opposing_radius_m!r}")
         self.opposing_normal_noise = None if opposing_normal_noise is None else float(opposing_normal_noise)
         self.opposing_radius_m = float(opposing_radius_m)
+        self.opposing_overrides_floor = bool(opposing_overrides_floor)
         self.trend_spec = None if trend is None else float(trend)
         self.trend: QuadraticTrend | None = None
         self.kernel_spec = kernel
@@ -196,7 +201,8 @@ class GPIS:
         rebuild a field from a subset of its evidence (rows cannot be taken out of a factor)."""
         return GPIS(kernel=self.kernel_spec, noise=self.noise, normal_noise=self.normal_noise,
                     use_normals=self.use_normals, bounds=self.bounds, trend=self.trend_spec,
-                    opposing_normal_noise=self.opposing_normal_noise, opposing_radius_m=self.opposing_radius_m)
+                    opposing_normal_noise=self.opposing_normal_noise, opposing_radius_m=self.opposing_radius_m,
+                    opposing_overrides_floor=self.opposing_overrides_floor)
 
     @property
     def n_contacts(self) -> int:
@@ -457,7 +463,8 @@ class GPIS:
         """(k,) normal noise of new contacts: ``opposing_normal_noise`` for those with a contact
         within ``opposing_radius_m`` whose normal opposes theirs (cosine < -0.5: the two sides of
         a thin wall or a sharp tip), ``normal_noise`` otherwise; a contact given a noise floor
-        (``add``/``fit`` ``normal_noise``) has at least that and is never tightened.
+        (``add``/``fit`` ``normal_noise``) has at least that and is tightened only with
+        ``opposing_overrides_floor``.
 
         Contacts already in the factor keep the noise they were added with until the next fit.
         """
@@ -473,7 +480,8 @@ class GPIS:
         others_n = np.vstack([self.contact_normals, normals]) if self._contact_normals else normals
         tree = cKDTree(others_p)
         for i, near in enumerate(tree.query_ball_point(points, self.opposing_radius_m)):
-            doubted = floor is not None and len(floor) == len(points) and np.isfinite(floor[i])
+            doubted = (not self.opposing_overrides_floor and floor is not None and len(floor) == len(points)
+                       and np.isfinite(floor[i]))
             if near and np.min(others_n[near] @ normals[i]) < -0.5 and not doubted:
                 out[i] = self.opposing_normal_noise
         return out

@@ -217,3 +217,37 @@ def test_a_misss_row_where_the_field_is_already_free_pulls_the_surface_out_and_t
     assert rows - swept_rows == np.count_nonzero(~free_already)
     moved_by_gate = np.abs(gated.mean(line[free_already]) - without.mean(line[free_already]))
     assert np.all(moved_by_gate < pulled)
+
+
+def test_the_reconstruction_tightens_a_doubtful_contact_on_a_thin_wall_and_the_loops_field_does_not():
+    """Two contacts on the faces of a 4 mm slab, the second doubtful. ``LoopConfig.reconstruction_field``
+    rebuilds the field with ``GPIS.opposing_overrides_floor`` (``reconstruction_tightens_doubtful``):
+    as if the second had not been doubted. The loop's field, and a session recorded before the
+    setting, keep its floor."""
+    from dataclasses import replace
+
+    from explorer.contact import ContactQuality
+    from explorer.loop import LoopConfig
+    from explorer.touch import TouchOutcome
+
+    doubtful = ContactQuality(force_n=2.0, n_readings=10, approach_cosine=0.9, tilt_rad=0.1,
+                              pad_uv_m=np.zeros(2), rim_distance_m=0.001, doubtful=True)
+    up, down = np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, -1.0])
+    top, bottom = np.array([0.0, 0.0, 0.002]), np.array([0.005, 0.0, -0.002])
+    records = [TouchOutcome(0, "contact", top, down, position_m=top, normal=up),
+               TouchOutcome(1, "contact", bottom, up, position_m=bottom, normal=down, quality=doubtful)]
+    config = LoopConfig()
+    assert config.reconstruction_tightens_doubtful
+    loop_field = config.evidence(GPIS(bounds=BOUNDS))
+    for record in records:
+        loop_field.add_touch(record, config.doubtful_normal_noise)
+    field, rows = config.reconstruction_field(loop_field.gpis, records, 0.009)
+    assert rows == 0 and not loop_field.gpis.opposing_overrides_floor
+    undoubted = GPIS(bounds=BOUNDS)
+    undoubted.add(top, up)
+    undoubted.add(bottom, down)
+    x = _queries()
+    np.testing.assert_allclose(field.mean(x), undoubted.mean(x), rtol=0, atol=1e-9)
+    legacy, _ = replace(config, reconstruction_tightens_doubtful=False).reconstruction_field(loop_field.gpis, records, 0.009)
+    np.testing.assert_allclose(legacy.mean(x), loop_field.gpis.mean(x), rtol=0, atol=1e-12)
+    assert np.max(np.abs(legacy.mean(x) - field.mean(x))) > 1e-4

@@ -404,3 +404,30 @@ def test_opposing_normal_noise_sees_contacts_already_added():
     assert gp._normal_noise_per_contact(points[1:], normals[1:])[0] == 0.05
     with pytest.raises(ValueError, match="opposing_normal_noise"):
         GPIS(opposing_normal_noise=0.0)
+
+
+def test_a_doubtful_contact_on_a_thin_wall_is_tightened_only_when_the_opposing_rule_overrides_its_floor():
+    """Two contacts 5 mm apart on the two faces of a 4 mm slab, the second doubtful (normal-noise
+    floor 0.5). By default the floor wins; with ``opposing_overrides_floor`` the doubtful contact
+    gets ``opposing_normal_noise`` like an undoubted one: the same field as without the floor. A
+    doubtful contact with no opposing neighbour keeps its floor either way."""
+    points = np.array([[0.0, 0.0, 0.002], [0.005, 0.0, -0.002]])
+    normals = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+    x = 0.05 * np.random.default_rng(3).uniform(-1, 1, (200, 3))
+
+    def field(overrides, floor):
+        gp = GPIS(bounds=BOUNDS, opposing_normal_noise=0.05, opposing_overrides_floor=overrides)
+        gp.add(points[0], normals[0])
+        gp.add(points[1], normals[1], normal_noise=floor)
+        return gp
+
+    undoubted = field(False, None).mean(x)
+    np.testing.assert_allclose(field(True, 0.5).mean(x), undoubted, rtol=0, atol=1e-9)
+    assert np.max(np.abs(field(False, 0.5).mean(x) - undoubted)) > 1e-4
+    assert field(True, 0.5).unfitted_copy().opposing_overrides_floor
+
+    lone = GPIS(bounds=BOUNDS, opposing_overrides_floor=True)
+    lone.add(points[0], normals[0], normal_noise=0.5)
+    floored = GPIS(bounds=BOUNDS)
+    floored.add(points[0], normals[0], normal_noise=0.5)
+    np.testing.assert_allclose(lone.mean(x), floored.mean(x), rtol=0, atol=1e-12)
