@@ -178,6 +178,12 @@ class LoopConfig:
         with its floor the two sides of a thin wall part where one side was doubtful. The loop's
         own field keeps the floor. Chosen on the tuning split (BENCHMARKS.md, "A doubtful contact
         on a thin wall"). False: runs recorded before this setting.
+    reconstruction_doubtful_normal_noise : float or None
+        The normal-noise floor of a doubtful contact in the reconstruction's field; the loop's own
+        field keeps ``doubtful_normal_noise``. 0.2, the GPIS's ``normal_noise``: the reconstruction
+        fits a doubtful contact like any other. Chosen on the tuning split against 0.3, 0.5 and 1.0
+        (BENCHMARKS.md, "A doubtful contact on a thin wall"). None: ``doubtful_normal_noise`` (runs
+        recorded before this setting).
     reconstruction_gates_misses : bool
         The reconstruction takes a miss's free space as it takes the swept lines: only where the
         final field puts surface nearer than ``-free_space_value``, at
@@ -271,6 +277,7 @@ class LoopConfig:
     reconstruction_free_space_noise: float | None = 0.002
     reconstruction_gates_misses: bool = True
     reconstruction_tightens_doubtful: bool = True
+    reconstruction_doubtful_normal_noise: float | None = 0.2
     line_tolerance_m: float | None = 0.005
     stop_off_line: bool = False
     loose_settle_deviation_rad: float | None = float(np.radians(1.5))
@@ -305,17 +312,20 @@ class LoopConfig:
     def reconstruction_field(self, gpis: GPIS, records, pad_half_width_m: float) -> tuple[GPIS, int]:
         """The field the run's reconstruction is meshed from and the number of free-space rows it
         adds: ``gpis`` rebuilt from :meth:`reconstruction_records` (without the misses' rows when
-        ``reconstruction_gates_misses``; its doubtful contacts on thin walls tightened with
-        ``reconstruction_tightens_doubtful``) plus the gated rows of ``swept_free_space``. ``gpis``
+        ``reconstruction_gates_misses``; its doubtful contacts with ``reconstruction_doubtful_normal_noise``
+        and, on thin walls, tightened with ``reconstruction_tightens_doubtful``) plus the gated rows of ``swept_free_space``. ``gpis``
         itself is unchanged; with none of these settings it is the field."""
         records, bridged = self.reconstruction_records(records, pad_half_width_m, gpis.use_normals)
         gated_misses = self.reconstruction_gates_misses and self.swept_free_space
-        tighten = (self.reconstruction_tightens_doubtful and not gpis.opposing_overrides_floor
-                   and any(r.kind == "contact" and getattr(r.quality, "doubtful", False) for r in records))
-        if gated_misses or bridged or tighten:
+        doubtful_noise = (self.doubtful_normal_noise if self.reconstruction_doubtful_normal_noise is None
+                          else self.reconstruction_doubtful_normal_noise)
+        doubtful = any(r.kind == "contact" and getattr(r.quality, "doubtful", False) for r in records)
+        refloor = doubtful and ((self.reconstruction_tightens_doubtful and not gpis.opposing_overrides_floor)
+                                or doubtful_noise != self.doubtful_normal_noise)
+        if gated_misses or bridged or refloor:
             settings = gpis.unfitted_copy()
             settings.opposing_overrides_floor |= self.reconstruction_tightens_doubtful
-            gpis = self.evidence(settings).rebuilt(records, self.doubtful_normal_noise, misses=not gated_misses).gpis
+            gpis = self.evidence(settings).rebuilt(records, doubtful_noise, misses=not gated_misses).gpis
         if not self.swept_free_space:
             return gpis, 0
         noise = self.free_space_noise if self.reconstruction_free_space_noise is None else self.reconstruction_free_space_noise

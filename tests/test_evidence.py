@@ -222,8 +222,8 @@ def test_a_misss_row_where_the_field_is_already_free_pulls_the_surface_out_and_t
 def test_the_reconstruction_tightens_a_doubtful_contact_on_a_thin_wall_and_the_loops_field_does_not():
     """Two contacts on the faces of a 4 mm slab, the second doubtful. ``LoopConfig.reconstruction_field``
     rebuilds the field with ``GPIS.opposing_overrides_floor`` (``reconstruction_tightens_doubtful``):
-    as if the second had not been doubted. The loop's field, and a session recorded before the
-    setting, keep its floor."""
+    as if the second had not been doubted. ``reconstruction_doubtful_normal_noise`` alone sets its
+    floor. The loop's field, and a session recorded before both settings, keep the loop's floor."""
     from dataclasses import replace
 
     from explorer.contact import ContactQuality
@@ -248,6 +248,13 @@ def test_the_reconstruction_tightens_a_doubtful_contact_on_a_thin_wall_and_the_l
     undoubted.add(bottom, down)
     x = _queries()
     np.testing.assert_allclose(field.mean(x), undoubted.mean(x), rtol=0, atol=1e-9)
-    legacy, _ = replace(config, reconstruction_tightens_doubtful=False).reconstruction_field(loop_field.gpis, records, 0.009)
+    legacy_config = replace(config, reconstruction_tightens_doubtful=False, reconstruction_doubtful_normal_noise=None)
+    legacy, _ = legacy_config.reconstruction_field(loop_field.gpis, records, 0.009)
     np.testing.assert_allclose(legacy.mean(x), loop_field.gpis.mean(x), rtol=0, atol=1e-12)
     assert np.max(np.abs(legacy.mean(x) - field.mean(x))) > 1e-4
+    floor_only, _ = replace(legacy_config, reconstruction_doubtful_normal_noise=0.3).reconstruction_field(
+        loop_field.gpis, records, 0.009)
+    direct = GPIS(bounds=BOUNDS)
+    direct.add(top, up)
+    direct.add(bottom, down, normal_noise=0.3)
+    np.testing.assert_allclose(floor_only.mean(x), direct.mean(x), rtol=0, atol=1e-9)
