@@ -313,15 +313,15 @@ class LoopConfig:
         """The field the run's reconstruction is meshed from and the number of free-space rows it
         adds: ``gpis`` rebuilt from :meth:`reconstruction_records` (without the misses' rows when
         ``reconstruction_gates_misses``; its doubtful contacts with ``reconstruction_doubtful_normal_noise``
-        and, on thin walls, tightened with ``reconstruction_tightens_doubtful``) plus the gated rows of ``swept_free_space``. ``gpis``
-        itself is unchanged; with none of these settings it is the field."""
+        and, on thin walls, tightened with ``reconstruction_tightens_doubtful``) plus the gated rows
+        of ``swept_free_space``. ``gpis`` itself is unchanged; with none of these settings it is the
+        field."""
         records, bridged = self.reconstruction_records(records, pad_half_width_m, gpis.use_normals)
         gated_misses = self.reconstruction_gates_misses and self.swept_free_space
         doubtful_noise = (self.doubtful_normal_noise if self.reconstruction_doubtful_normal_noise is None
                           else self.reconstruction_doubtful_normal_noise)
         doubtful = any(r.kind == "contact" and getattr(r.quality, "doubtful", False) for r in records)
-        refloor = doubtful and ((self.reconstruction_tightens_doubtful and not gpis.opposing_overrides_floor)
-                                or doubtful_noise != self.doubtful_normal_noise)
+        refloor = doubtful and (self.reconstruction_tightens_doubtful or doubtful_noise != self.doubtful_normal_noise)
         if gated_misses or bridged or refloor:
             settings = gpis.unfitted_copy()
             settings.opposing_overrides_floor |= self.reconstruction_tightens_doubtful

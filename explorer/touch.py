@@ -158,9 +158,10 @@ class TouchOutcome:
     def past_target_m(self) -> float:
         """How far along its approach the contact lies beyond the target, metres (negative: before
         it); 0 without a contact position."""
-        if self.position_m is None:
-            return 0.0
-        return float((np.asarray(self.position_m) - self.target_m) @ self.approach_dir)
+        return 0.0 if self.position_m is None else self._along(self.position_m)
+
+    def _along(self, point_m) -> float:
+        return float((np.asarray(point_m) - self.target_m) @ self.approach_dir)
 
     def swept_points(self, margin_m: float, spacing_m: float = 0.01) -> np.ndarray:
         """:meth:`passed_points` of a contact the GPIS takes (kind ``contact``) or of a press on the
@@ -171,7 +172,7 @@ class TouchOutcome:
     def _line_before(self, end_m, margin_m: float, spacing_m: float) -> np.ndarray:
         if end_m is None:
             return np.zeros((0, 3))
-        reached = float((np.asarray(end_m) - self.target_m) @ self.approach_dir)
+        reached = self._along(end_m)
         along = np.arange(0.0, reached - margin_m + 1e-12, spacing_m)
         return self.target_m + along[:, None] * self.approach_dir
 
