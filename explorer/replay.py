@@ -316,6 +316,8 @@ class SessionReplay:
             self.loop_config = replace(self.loop_config, reconstruction_tightens_doubtful=False)
         if "reconstruction_doubtful_normal_noise" not in recorded_loop:  # meshed with the loop's floor
             self.loop_config = replace(self.loop_config, reconstruction_doubtful_normal_noise=None)
+        if "reconstruction_wall_gain" not in recorded_loop:  # meshed with thin walls as the loop added them
+            self.loop_config = replace(self.loop_config, reconstruction_wall_gain=None)
         if "probe_corridor_m" not in recorded_loop:  # recorded before the loop's field took probe corridors
             self.loop_config = replace(self.loop_config, probe_corridor_m=None)
         if "bridge_concave_contacts" not in recorded_loop:  # meshed with the contacts as measured

@@ -59,6 +59,10 @@ class GPIS:
     opposing_overrides_floor : bool
         A contact given a normal-noise floor (a doubtful one, ``add``/``fit`` ``normal_noise``)
         that has an opposing neighbour gets ``opposing_normal_noise`` too. False: the floor wins.
+    opposing_gradient_gain : float
+        A contact given ``opposing_normal_noise`` is observed as ``grad f = -gain n`` with its noise
+        scaled alike: the field rises ``gain`` times faster into a thin wall, so that it does not
+        sag through the wall between contacts. 1 (default): a unit gradient like every contact.
     normal_noise : float
         Standard deviation of each gradient component of the normal observations (unitless;
         0.1 is about a 6 deg direction error). The default, 0.2, is twice the sensor's error: a
@@ -77,7 +81,7 @@ class GPIS:
                  normal_noise: float = 0.2, use_normals: bool = True,
                  bounds: Sequence[Sequence[float]] | None = None, trend: float | None = 3.0,
                  opposing_normal_noise: float | None = 0.05, opposing_radius_m: float = 0.015,
-                 opposing_overrides_floor: bool = False):
+                 opposing_overrides_floor: bool = False, opposing_gradient_gain: float = 1.0):
         if isinstance(kernel, str) and kernel not in kernel_names():
             raise ValueError(f"unknown kernel {kernel!r}; choose one of {', '.join(kernel_names())} "
                              "or pass a Kernel instance")
@@ -94,9 +98,12 @@ class GPIS:
                              f"got {opposing_normal_noise!r}")
         if not (np.isfinite(opposing_radius_m) and opposing_radius_m > 0):
             raise ValueError(f"opposing_radius_m must be a positive length, got {opposing_radius_m!r}")
+        if not (np.isfinite(opposing_gradient_gain) and opposing_gradient_gain > 0):
+            raise ValueError(f"opposing_gradient_gain must be a positive finite factor, got {opposing_gradient_gain!r}")
         self.opposing_normal_noise = None if opposing_normal_noise is None else float(opposing_normal_noise)
         self.opposing_radius_m = float(opposing_radius_m)
         self.opposing_overrides_floor = bool(opposing_overrides_floor)
+        self.opposing_gradient_gain = float(opposing_gradient_gain)
         self.trend_spec = None if trend is None else float(trend)
         self.trend: QuadraticTrend | None = None
         self.kernel_spec = kernel
@@ -202,7 +209,8 @@ class GPIS:
         return GPIS(kernel=self.kernel_spec, noise=self.noise, normal_noise=self.normal_noise,
                     use_normals=self.use_normals, bounds=self.bounds, trend=self.trend_spec,
                     opposing_normal_noise=self.opposing_normal_noise, opposing_radius_m=self.opposing_radius_m,
-                    opposing_overrides_floor=self.opposing_overrides_floor)
+                    opposing_overrides_floor=self.opposing_overrides_floor,
+                    opposing_gradient_gain=self.opposing_gradient_gain)
 
     @property
     def n_contacts(self) -> int:
@@ -453,38 +461,80 @@ class GPIS:
             var = np.full((k, 1), (self.noise if noise is None else noise) ** 2)
         else:
             comps = np.tile(np.arange(4), (k, 1))
-            y = np.column_stack([values, -normals])
-            normal_std = self._normal_noise_per_contact(points, normals)
-            var = np.column_stack([np.full(k, self.noise**2), np.repeat(normal_std[:, None] ** 2, 3, 1)])
+            normal_std, gain = self._normal_noise_per_contact(points, normals)
+            y = np.column_stack([values, -normals * gain[:, None]])
+            var = np.column_stack([np.full(k, self.noise**2), np.repeat((normal_std * gain)[:, None] ** 2, 3, 1)])
         offsets = np.repeat(np.arange(k), comps.shape[1])
         return offsets, comps.ravel(), y.ravel(), var.ravel()
 
-    def _normal_noise_per_contact(self, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
-        """(k,) normal noise of new contacts: ``opposing_normal_noise`` for those with a contact
-        within ``opposing_radius_m`` whose normal opposes theirs (cosine < -0.5: the two sides of
-        a thin wall or a sharp tip), ``normal_noise`` otherwise; a contact given a noise floor
-        (``add``/``fit`` ``normal_noise``) has at least that and is tightened only with
-        ``opposing_overrides_floor``.
+    def _normal_noise_per_contact(self, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(k,) normal noise and (k,) gradient gain of new contacts (:meth:`_gradient_noise`), judged
+        against the contacts already fitted and each other, with the floor being staged."""
+        floor = self._normal_noise_floor
+        return self._gradient_noise(points, normals, floor if floor is not None and len(floor) == len(points) else None,
+                                    np.vstack([self.contact_points, points]),
+                                    np.vstack([self.contact_normals, normals]) if self._contact_normals else normals)
 
-        Contacts already in the factor keep the noise they were added with until the next fit.
+    def _gradient_noise(self, points: np.ndarray, normals: np.ndarray, floor: np.ndarray | None,
+                        others_p: np.ndarray, others_n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(k,) normal noise and (k,) gradient gain of contacts ``points``, ``normals`` among the
+        contacts ``others_p``, ``others_n`` (they may include these): ``opposing_normal_noise`` and
+        ``opposing_gradient_gain`` for a contact with another within ``opposing_radius_m`` whose
+        normal opposes its own (cosine < -0.5: the two sides of a thin wall or a sharp tip),
+        ``normal_noise`` and 1 otherwise. A contact given a noise floor (``add``/``fit``
+        ``normal_noise``, ``floor`` (k,) with NaN for none) has at least that and is tightened only
+        with ``opposing_overrides_floor``.
+
+        Contacts already in the factor keep the noise they were added with until the next fit
+        (or :meth:`reassess_contact_noise`).
         """
         out = np.full(len(points), self.normal_noise)
-        floor = self._normal_noise_floor
-        if floor is not None and len(floor) == len(points):
+        gain = np.ones(len(points))
+        if floor is not None:
             out = np.fmax(out, floor)
         if self.opposing_normal_noise is None:
-            return out
-        from scipy.spatial import cKDTree
+            return out, gain
+        tight = _opposing(points, normals, others_p, others_n, self.opposing_radius_m)
+        if floor is not None and not self.opposing_overrides_floor:
+            tight &= ~np.isfinite(floor)
+        out[tight] = self.opposing_normal_noise
+        gain[tight] = self.opposing_gradient_gain
+        return out, gain
 
-        others_p = np.vstack([self.contact_points, points])
-        others_n = np.vstack([self.contact_normals, normals]) if self._contact_normals else normals
-        tree = cKDTree(others_p)
-        for i, near in enumerate(tree.query_ball_point(points, self.opposing_radius_m)):
-            doubted = (not self.opposing_overrides_floor and floor is not None and len(floor) == len(points)
-                       and np.isfinite(floor[i]))
-            if near and np.min(others_n[near] @ normals[i]) < -0.5 and not doubted:
-                out[i] = self.opposing_normal_noise
-        return out
+    def thin_wall_contacts(self) -> np.ndarray:
+        """(n,) bool: the contacts with another within ``opposing_radius_m`` whose normal opposes
+        theirs (cosine < -0.5), all contacts known; all False without normals."""
+        normals = self.contact_normals
+        if normals is None:
+            return np.zeros(self.n_contacts, bool)
+        points = self.contact_points
+        return _opposing(points, normals, points, normals, self.opposing_radius_m)
+
+    def reassess_contact_noise(self) -> "GPIS":
+        """Give every contact the normal noise and gradient gain the rules give with all contacts
+        known, and refactor (one full factorisation, O(rows^3)).
+
+        :meth:`add` judges a contact against the contacts before it, so the side of a thin wall
+        touched first keeps ``normal_noise`` after its opposite side was touched; :meth:`fit` of
+        the same contacts would have tightened both. This does that without losing the value rows
+        (free space) added since. In place; returns ``self``.
+        """
+        self._require_fit()
+        grad_rows = np.flatnonzero(self._row_comp > 0)
+        if not len(grad_rows):
+            return self
+        points, normals = self.contact_points, self.contact_normals
+        floor = np.concatenate(self._contact_noise_floor)
+        std, gain = self._gradient_noise(points, normals, floor, points, normals)
+        # Contacts are the observation points with gradient rows, in the order they were added.
+        contact = np.searchsorted(np.unique(self._row_point[grad_rows]), self._row_point[grad_rows])
+        component = self._row_comp[grad_rows] - 1
+        self._y = self._y.copy()
+        self._noise_var = self._noise_var.copy()
+        self._y[grad_rows] = -normals[contact, component] * gain[contact]
+        self._noise_var[grad_rows] = (std * gain)[contact] ** 2
+        self._factor_all()
+        return self
 
     def _stage(self, points, values, normals, noise=None):
         """Append observation rows without touching the factor."""
@@ -655,6 +705,18 @@ class VarianceTracker:
 
 
 #: Attributes an append replaces (never mutates in place), restored when an append fails.
+def _opposing(points: np.ndarray, normals: np.ndarray, others_p: np.ndarray, others_n: np.ndarray,
+              radius_m: float) -> np.ndarray:
+    """(k,) bool: ``points`` with one of ``others_p`` within ``radius_m`` whose normal opposes
+    theirs (cosine < -0.5: the two sides of a thin wall or a sharp tip)."""
+    from scipy.spatial import cKDTree
+
+    out = np.zeros(len(points), bool)
+    for i, near in enumerate(cKDTree(others_p).query_ball_point(points, radius_m)):
+        out[i] = bool(near) and float(np.min(others_n[near] @ normals[i])) < -0.5
+    return out
+
+
 def _noise_floor(normal_noise, n: int) -> np.ndarray:
     """(n,) per-contact normal-noise floor from a scalar, an (n,) array or None (NaN: none)."""
     if normal_noise is None:

@@ -236,7 +236,7 @@ def test_the_reconstruction_tightens_a_doubtful_contact_on_a_thin_wall_and_the_l
     top, bottom = np.array([0.0, 0.0, 0.002]), np.array([0.005, 0.0, -0.002])
     records = [TouchOutcome(0, "contact", top, down, position_m=top, normal=up),
                TouchOutcome(1, "contact", bottom, up, position_m=bottom, normal=down, quality=doubtful)]
-    config = LoopConfig()
+    config = replace(LoopConfig(), reconstruction_wall_gain=None)   # both faces: the next test
     assert config.reconstruction_tightens_doubtful
     loop_field = config.evidence(GPIS(bounds=BOUNDS))
     for record in records:
@@ -258,3 +258,33 @@ def test_the_reconstruction_tightens_a_doubtful_contact_on_a_thin_wall_and_the_l
     direct.add(top, up)
     direct.add(bottom, down, normal_noise=0.3)
     np.testing.assert_allclose(floor_only.mean(x), direct.mean(x), rtol=0, atol=1e-9)
+
+
+def test_the_reconstruction_tightens_both_faces_of_a_thin_wall_whichever_was_touched_first():
+    """The loop adds a slab's top face, then its bottom: only the bottom is tightened in the loop's
+    field (the top had no opposing neighbour when it came). ``LoopConfig.reconstruction_field``
+    with ``reconstruction_wall_gain`` gives the field one fit of both contacts gives, with that
+    gradient gain; without it (sessions recorded before) the loop's field is the reconstruction's."""
+    from dataclasses import replace
+
+    from explorer.loop import LoopConfig
+    from explorer.touch import TouchOutcome
+
+    up, down = np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, -1.0])
+    top, bottom = np.array([0.0, 0.0, 0.002]), np.array([0.005, 0.0, -0.002])
+    records = [TouchOutcome(0, "contact", top, down, position_m=top, normal=up),
+               TouchOutcome(1, "contact", bottom, up, position_m=bottom, normal=down)]
+    config = LoopConfig()
+    assert config.reconstruction_wall_gain is not None and config.reconstruction_wall_gain > 1
+    loop_field = config.evidence(GPIS(bounds=BOUNDS))
+    for record in records:
+        loop_field.add_touch(record, config.doubtful_normal_noise)
+    field, rows = config.reconstruction_field(loop_field.gpis, records, 0.009)
+    assert rows == 0 and loop_field.gpis.opposing_gradient_gain == 1.0
+    x = _queries()
+    once = GPIS(bounds=BOUNDS, opposing_gradient_gain=config.reconstruction_wall_gain).fit(
+        np.array([top, bottom]), np.array([up, down]))
+    np.testing.assert_allclose(field.mean(x), once.mean(x), rtol=0, atol=1e-9)
+    assert np.max(np.abs(field.mean(x) - loop_field.gpis.mean(x))) > 1e-4
+    legacy, _ = replace(config, reconstruction_wall_gain=None).reconstruction_field(loop_field.gpis, records, 0.009)
+    np.testing.assert_allclose(legacy.mean(x), loop_field.gpis.mean(x), rtol=0, atol=1e-12)

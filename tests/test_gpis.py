@@ -382,14 +382,14 @@ def _thin_slab_contacts(n, thickness=0.004, seed=0):
 def test_opposing_normal_noise_applies_to_thin_walls_only():
     gp = GPIS(bounds=BOUNDS, opposing_normal_noise=0.05)
     slab_points, slab_normals = _thin_slab_contacts(60)
-    noise = gp._normal_noise_per_contact(slab_points, slab_normals)
+    noise, gain = gp._normal_noise_per_contact(slab_points, slab_normals)
     # every contact with an opposite-face contact within 15 mm is tightened, the rest are not
     opposite = [np.any((np.linalg.norm(slab_points - p, axis=1) <= 0.015) & (slab_normals[:, 2] == -n[2]))
                 for p, n in zip(slab_points, slab_normals)]
     np.testing.assert_array_equal(noise == 0.05, opposite)
     assert np.mean(opposite) > 0.8
     sphere_points, sphere_normals = sphere_contacts(100)  # 5 cm sphere: no opposing neighbour
-    assert np.all(gp._normal_noise_per_contact(sphere_points, sphere_normals) == gp.normal_noise)
+    assert np.all(gp._normal_noise_per_contact(sphere_points, sphere_normals)[0] == gp.normal_noise)
     x = 0.07 * np.random.default_rng(7).uniform(-1, 1, (100, 3))
     plain = GPIS(bounds=BOUNDS).fit(sphere_points, sphere_normals)
     np.testing.assert_array_equal(gp.fit(sphere_points, sphere_normals).mean(x), plain.mean(x))
@@ -401,9 +401,54 @@ def test_opposing_normal_noise_sees_contacts_already_added():
     points[:, 2] = [0.002, -0.002]
     normals[:, 2] = [1.0, -1.0]
     gp = GPIS(bounds=BOUNDS, opposing_normal_noise=0.05).fit(points[:1], normals[:1])
-    assert gp._normal_noise_per_contact(points[1:], normals[1:])[0] == 0.05
+    assert gp._normal_noise_per_contact(points[1:], normals[1:])[0][0] == 0.05
     with pytest.raises(ValueError, match="opposing_normal_noise"):
         GPIS(opposing_normal_noise=0.0)
+
+
+def test_reassessing_contact_noise_after_adds_gives_the_field_of_one_fit():
+    """Added one by one, a slab's contacts are judged only against those before them, so some faces
+    touched first stay loose; :meth:`GPIS.reassess_contact_noise` must then give the field a single
+    fit of the same contacts gives (which judges every contact against all), with the value rows
+    added since kept, for any gradient gain."""
+    points, normals = _thin_slab_contacts(30, seed=5)
+    free = np.array([[0.0, 0.0, 0.02], [0.01, -0.01, -0.02]])
+    x = 0.05 * np.random.default_rng(11).uniform(-1, 1, (300, 3))
+    for gain in (1.0, 3.0):
+        added = GPIS(bounds=BOUNDS, opposing_gradient_gain=gain)
+        for p, n in zip(points, normals):
+            added.add(p, n)
+        added.add_values(free, [-0.01, -0.01])
+        once = GPIS(bounds=BOUNDS, opposing_gradient_gain=gain).fit(points, normals).add_values(free, [-0.01, -0.01])
+        assert np.max(np.abs(added.mean(x) - once.mean(x))) > 1e-5   # the loose first faces show
+        np.testing.assert_allclose(added.reassess_contact_noise().mean(x), once.mean(x), rtol=0, atol=1e-9)
+
+
+def test_the_gradient_gain_makes_the_field_rise_that_much_faster_into_a_thin_wall_only():
+    """With ``opposing_gradient_gain`` g the fitted gradient at a thin wall's tightened contacts is
+    close to -g n (their rows ask for it at noise 0.05 g; the kernel's smoothness holds it a little
+    below), while a sphere (no opposing pair) is fitted
+    exactly as without the gain."""
+    points, normals = _thin_slab_contacts(60, seed=2)
+    gp = GPIS(bounds=BOUNDS, opposing_gradient_gain=3.0).fit(points, normals)
+    noise, gain = gp._normal_noise_per_contact(points, normals)
+    tight = gain == 3.0
+    assert tight.mean() > 0.8 and np.all(noise[tight] == gp.opposing_normal_noise) and np.all(gain[~tight] == 1.0)
+    np.testing.assert_array_equal(gp.thin_wall_contacts(), tight)
+    slope = -np.einsum("ij,ij->i", gp.gradient(points[tight]), normals[tight])
+    plain_slope = -np.einsum("ij,ij->i", GPIS(bounds=BOUNDS).fit(points, normals).gradient(points[tight]), normals[tight])
+    # The smooth kernel resists a steep thin wall either way; the gain scales what it is asked for.
+    assert np.all((slope > 2.0) & (slope <= 3.0 + 3 * 3 * gp.opposing_normal_noise)), slope
+    assert np.all((plain_slope > 0.7) & (plain_slope <= 1.0 + 3 * gp.opposing_normal_noise)), plain_slope
+    assert 2.0 < np.median(slope / plain_slope) < 3.5
+    sphere_points, sphere_normals = sphere_contacts(80)
+    q = 0.07 * np.random.default_rng(7).uniform(-1, 1, (100, 3))
+    sphere = GPIS(bounds=BOUNDS, opposing_gradient_gain=3.0).fit(sphere_points, sphere_normals)
+    assert not sphere.thin_wall_contacts().any()
+    np.testing.assert_array_equal(sphere.mean(q), GPIS(bounds=BOUNDS).fit(sphere_points, sphere_normals).mean(q))
+    assert GPIS(opposing_gradient_gain=2.0).unfitted_copy().opposing_gradient_gain == 2.0
+    with pytest.raises(ValueError, match="opposing_gradient_gain"):
+        GPIS(opposing_gradient_gain=0.0)
 
 
 def test_a_doubtful_contact_on_a_thin_wall_is_tightened_only_when_the_opposing_rule_overrides_its_floor():
