@@ -517,7 +517,8 @@ class GPIS:
         :meth:`add` judges a contact against the contacts before it, so the side of a thin wall
         touched first keeps ``normal_noise`` after its opposite side was touched; :meth:`fit` of
         the same contacts would have tightened both. This does that without losing the value rows
-        (free space) added since. In place; returns ``self``.
+        (free space) added since. In place; returns ``self``; if the factorisation fails the GPIS is
+        left as it was.
         """
         self._require_fit()
         grad_rows = np.flatnonzero(self._row_comp > 0)
@@ -529,11 +530,17 @@ class GPIS:
         # Contacts are the observation points with gradient rows, in the order they were added.
         contact = np.searchsorted(np.unique(self._row_point[grad_rows]), self._row_point[grad_rows])
         component = self._row_comp[grad_rows] - 1
+        saved = {name: getattr(self, name) for name in _OBSERVATION_STATE}
         self._y = self._y.copy()
         self._noise_var = self._noise_var.copy()
         self._y[grad_rows] = -normals[contact, component] * gain[contact]
         self._noise_var[grad_rows] = (std * gain)[contact] ** 2
-        self._factor_all()
+        try:
+            self._factor_all()
+        except BaseException:
+            for name, value in saved.items():
+                setattr(self, name, value)
+            raise
         return self
 
     def _stage(self, points, values, normals, noise=None):
@@ -704,7 +711,6 @@ class VarianceTracker:
         self._Wt[:, used:need] = new_rows.T
 
 
-#: Attributes an append replaces (never mutates in place), restored when an append fails.
 def _opposing(points: np.ndarray, normals: np.ndarray, others_p: np.ndarray, others_n: np.ndarray,
               radius_m: float) -> np.ndarray:
     """(k,) bool: ``points`` with one of ``others_p`` within ``radius_m`` whose normal opposes
@@ -727,6 +733,7 @@ def _noise_floor(normal_noise, n: int) -> np.ndarray:
     return floor
 
 
+#: Attributes an append replaces (never mutates in place), restored when an append fails.
 _OBSERVATION_STATE = ("_obs_points", "_row_point", "_row_comp", "_y", "_noise_var", "_z", "_alpha",
                       "_factor", "_lu", "_generation")
 

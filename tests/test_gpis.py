@@ -424,6 +424,28 @@ def test_reassessing_contact_noise_after_adds_gives_the_field_of_one_fit():
         np.testing.assert_allclose(added.reassess_contact_noise().mean(x), once.mean(x), rtol=0, atol=1e-9)
 
 
+def test_a_failed_reassessment_leaves_the_gpis_as_it_was(monkeypatch):
+    points, normals = _thin_slab_contacts(20, seed=5)
+    gp = GPIS(bounds=BOUNDS, opposing_gradient_gain=3.0)
+    for p, n in zip(points, normals):
+        gp.add(p, n)
+    x = 0.05 * np.random.default_rng(2).uniform(-1, 1, (50, 3))
+    before, y, generation = gp.mean(x), gp._y.copy(), gp.generation
+
+    def half_done(self):
+        self._generation += 1
+        self._alpha = None
+        raise np.linalg.LinAlgError("not positive definite")
+
+    monkeypatch.setattr(GPIS, "_factor_all", half_done)
+    with pytest.raises(np.linalg.LinAlgError):
+        gp.reassess_contact_noise()
+    monkeypatch.undo()
+    assert gp.generation == generation
+    np.testing.assert_array_equal(gp._y, y)
+    np.testing.assert_array_equal(gp.mean(x), before)
+
+
 def test_the_gradient_gain_makes_the_field_rise_that_much_faster_into_a_thin_wall_only():
     """With ``opposing_gradient_gain`` g the fitted gradient at a thin wall's tightened contacts is
     close to -g n (their rows ask for it at noise 0.05 g; the kernel's smoothness holds it a little
