@@ -190,8 +190,10 @@ class LoopConfig:
         :meth:`reconstruction.gpis.GPIS.reassess_contact_noise`), and their gradient rows ask for
         a field rising this many times faster into the wall (``GPIS.opposing_gradient_gain``), so
         that the mean does not sag through a 4-7 mm wall between contacts 2 cm apart. The loop's own
-        field is unchanged. 3, chosen on the tuning split against 1-6 on the same contacts
-        (BENCHMARKS.md, "Both faces of a thin wall"). None: runs recorded before this setting.
+        field is unchanged. 3, chosen on the tuning split against 1-6 on the same contacts at 100
+        touches (BENCHMARKS.md, "Both faces of a thin wall"); from several hundred sampled contacts
+        the gain costs a little (1.0: both faces tightened, no gain). None: runs recorded before
+        this setting.
     reconstruction_gates_misses : bool
         The reconstruction takes a miss's free space as it takes the swept lines: only where the
         final field puts surface nearer than ``-free_space_value``, at

@@ -94,7 +94,9 @@ class _Fitter:
 METHODS = {"default": _current_default, "old-default": _old_default,
            "normal-noise-0.1": _Configured(normal_noise=0.1, opposing_normal_noise=None),
            "normal-noise-0.05": _Configured(normal_noise=0.05, opposing_normal_noise=None),
-           "matern32-ml": _Configured(ml_matern32=(0.02, 0.04, 0.08, 0.16), opposing_normal_noise=None)}
+           "matern32-ml": _Configured(ml_matern32=(0.02, 0.04, 0.08, 0.16), opposing_normal_noise=None),
+           # the loop's reconstruction setting (LoopConfig.reconstruction_wall_gain) on sampled contacts
+           "wall-gain-3": _Configured(opposing_gradient_gain=3.0)}
 #: The default GPIS meshed with only its confident faces (``GPIS.mesh(max_std_m=...)``), by bound.
 CONFIDENT_BOUNDS_MM = {"confident": DEFAULT_MAX_STD_M * 1e3, "confident-1.5": 1.5, "confident-2.0": 2.0,
                        "confident-2.5": 2.5, "confident-3.0": 3.0}
