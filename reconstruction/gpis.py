@@ -14,6 +14,7 @@ solve instead of a refit. The mean is evaluated in float32 from the float64 weig
 """
 from __future__ import annotations
 
+import contextlib
 import copy
 import warnings
 from typing import Sequence
@@ -530,17 +531,12 @@ class GPIS:
         # Contacts are the observation points with gradient rows, in the order they were added.
         contact = np.searchsorted(np.unique(self._row_point[grad_rows]), self._row_point[grad_rows])
         component = self._row_comp[grad_rows] - 1
-        saved = {name: getattr(self, name) for name in _OBSERVATION_STATE}
-        self._y = self._y.copy()
-        self._noise_var = self._noise_var.copy()
-        self._y[grad_rows] = -normals[contact, component] * gain[contact]
-        self._noise_var[grad_rows] = (std * gain)[contact] ** 2
-        try:
+        with self._restored_on_failure():
+            self._y = self._y.copy()
+            self._noise_var = self._noise_var.copy()
+            self._y[grad_rows] = -normals[contact, component] * gain[contact]
+            self._noise_var[grad_rows] = (std * gain)[contact] ** 2
             self._factor_all()
-        except BaseException:
-            for name, value in saved.items():
-                setattr(self, name, value)
-            raise
         return self
 
     def _stage(self, points, values, normals, noise=None):
@@ -569,10 +565,16 @@ class GPIS:
 
     def _append(self, points, values, normals, noise=None):
         """Add observation rows and update the factor; on any failure the GPIS is left as it was."""
+        with self._restored_on_failure():
+            self._append_unguarded(points, values, normals, noise)
+
+    @contextlib.contextmanager
+    def _restored_on_failure(self):
+        """Put the observations and the factor back as they were if the block raises."""
         saved = {name: getattr(self, name) for name in _OBSERVATION_STATE}
         n_factor = None if self._factor is None else self._factor.n
         try:
-            self._append_unguarded(points, values, normals, noise)
+            yield
         except BaseException:
             for name, value in saved.items():
                 setattr(self, name, value)
