@@ -238,7 +238,10 @@ class VarianceStrategy(TouchStrategy):
         Below this gradient magnitude (about 1 on an observed surface) the approach aims at the
         prior centre instead of along the gradient.
     shortlist : int
-        Highest-variance candidates projected onto the surface and checked per proposal.
+        Highest-variance candidates projected onto the surface and checked at a time; when the
+        avoided and passed points rule out too many of them, the next ``shortlist`` are checked
+        (until ``count`` touches or no candidate is left), so the strategy never runs dry while
+        near-surface candidates remain.
     clear_unresolved : bool
         Where the gradient is below ``min_gradient``, approach along :func:`clear_approach` (the
         free way in nearest to the prior centre's direction) instead of straight at the centre.
@@ -287,9 +290,9 @@ class VarianceStrategy(TouchStrategy):
             near = np.abs(mean) <= np.sort(np.abs(mean))[min(50, len(mean) - 1)]
         return self._candidates[near], variance[near]
 
-    def projected_candidates(self, state: ExplorationState
+    def projected_candidates(self, state: ExplorationState, start: int = 0
                              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The ``shortlist`` most uncertain near-surface candidates, moved onto the surface.
+        """The ``shortlist`` most uncertain near-surface candidates from rank ``start``, moved onto the surface.
 
         Returns
         -------
@@ -307,7 +310,7 @@ class VarianceStrategy(TouchStrategy):
         """
         gp = state.gpis
         points, variance = self.surface_variance(state)
-        order = np.argsort(-variance)[:self.shortlist]
+        order = np.argsort(-variance)[start:start + self.shortlist]
         candidates = points[order]
         grads = gp.gradient(candidates).astype(float)
         values = gp.mean(candidates).astype(float)
@@ -324,16 +327,19 @@ class VarianceStrategy(TouchStrategy):
         return targets, approach, variance[order], points, surface_like
 
     def _ranked_touches(self, targets, approach, scores, state: ExplorationState, count: int,
-                        resolved: np.ndarray | None = None) -> list[Touch]:
+                        resolved: np.ndarray | None = None, chosen: list[Touch] | None = None) -> list[Touch]:
         """Touches in descending ``scores``, away from avoided targets and from each other.
 
         A touch whose approach the gradient did not give (``resolved`` False) comes in along
-        :func:`clear_approach` when ``clear_unresolved`` is set.
+        :func:`clear_approach` when ``clear_unresolved`` is set. ``chosen``: touches already
+        proposed (kept first, and kept apart from); the list returned extends them to ``count``.
         """
         avoid = state.unreachable_m + state.tried_m
         keep = (_not_near(targets, avoid, self.avoid_radius_m) & _not_near(targets, state.passed_m, self.passed_radius_m)
                 & (np.linalg.norm(approach, axis=1) > 1e-9))
-        touches: list[Touch] = []
+        touches: list[Touch] = list(chosen or [])
+        if len(touches) >= count:
+            return touches
         for i in np.flatnonzero(keep)[np.argsort(-scores[keep], kind="stable")]:
             if any(np.linalg.norm(targets[i] - t.target_m) < self.separation_m for t in touches):
                 continue
@@ -349,9 +355,15 @@ class VarianceStrategy(TouchStrategy):
         gp = state.gpis
         if gp is None or gp.n_contacts < self.initial_touches or state.touches < self.initial_touches:
             return self._uniform.propose(state, count)
-        targets, approach, variance, _, resolved = self.projected_candidates(state)
-        return (self._ranked_touches(targets, approach, variance, state, count, resolved)
-                or self._uniform.propose(state, count))
+        touches: list[Touch] = []
+        start = 0
+        while len(touches) < count:
+            targets, approach, variance, surface, resolved = self.projected_candidates(state, start)
+            touches = self._ranked_touches(targets, approach, variance, state, count, resolved, touches)
+            start += self.shortlist
+            if start >= len(surface):
+                break
+        return touches or self._uniform.propose(state, count)
 
 
 def contact_rows_noise(gp: GPIS, targets: np.ndarray, normals: np.ndarray) -> np.ndarray:

@@ -92,6 +92,25 @@ def test_variance_strategy_avoids_where_a_pad_went_through_to_a_farther_contact(
     assert np.min(np.linalg.norm(passed - second.target_m, axis=1)) > strategy.passed_radius_m
 
 
+def test_variance_strategy_looks_past_a_shortlist_it_has_ruled_out():
+    """When every shortlisted candidate lies where a pad already went, the strategy checks the next
+    ones instead of falling back to ``uniform``, and picks what one unlimited shortlist picks."""
+    d = fibonacci_directions(60)
+    gp = _sphere_gp(d[d[:, 2] > 0.2])
+    whole = VarianceStrategy(shortlist=100_000)
+    points, variance = whole.surface_variance(ExplorationState(PRIOR, gp, touches=40))
+    passed = list(points[np.argsort(-variance)[:10]])           # the ten most uncertain: gone through
+    state = ExplorationState(PRIOR, gp, touches=40, passed_m=passed)
+    small = VarianceStrategy(shortlist=10)
+    assert small._ranked_touches(*small.projected_candidates(state)[:3], state, 3) == []
+    touches = small.propose(state, 3)
+    expected = whole.propose(state, 3)
+    assert [t.strategy for t in touches] == ["variance"] * 3
+    for got, want in zip(touches, expected):
+        np.testing.assert_allclose(got.target_m, want.target_m, atol=1e-12)
+    assert min(np.min(np.linalg.norm(np.asarray(passed) - t.target_m, axis=1)) for t in touches) > small.passed_radius_m
+
+
 def test_passed_points_run_from_the_target_to_a_margin_short_of_the_contact():
     target, along = np.array([0.01, 0.02, 0.03]), np.array([0.0, 1.0, 0.0])
     far = TouchOutcome(0, "contact", target, along, position_m=target + 0.05 * along)
