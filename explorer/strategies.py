@@ -355,15 +355,24 @@ class VarianceStrategy(TouchStrategy):
         gp = state.gpis
         if gp is None or gp.n_contacts < self.initial_touches or state.touches < self.initial_touches:
             return self._uniform.propose(state, count)
+        def shortlist(start):
+            targets, approach, variance, surface, resolved = self.projected_candidates(state, start)
+            return targets, approach, variance, resolved, len(surface)
+        return self._touches_by_shortlist(state, count, shortlist) or self._uniform.propose(state, count)
+
+    def _touches_by_shortlist(self, state: ExplorationState, count: int, shortlist) -> list[Touch]:
+        """Up to ``count`` ranked touches from ``shortlist(start)`` (targets, approach, scores,
+        resolved or None, and the number of near-surface candidates), taking the next shortlist
+        while the avoided and passed points leave fewer than ``count``."""
         touches: list[Touch] = []
         start = 0
         while len(touches) < count:
-            targets, approach, variance, surface, resolved = self.projected_candidates(state, start)
-            touches = self._ranked_touches(targets, approach, variance, state, count, resolved, touches)
+            targets, approach, scores, resolved, candidates = shortlist(start)
+            touches = self._ranked_touches(targets, approach, scores, state, count, resolved, touches)
             start += self.shortlist
-            if start >= len(surface):
+            if start >= candidates:
                 break
-        return touches or self._uniform.propose(state, count)
+        return touches
 
 
 def contact_rows_noise(gp: GPIS, targets: np.ndarray, normals: np.ndarray) -> np.ndarray:
@@ -599,7 +608,19 @@ class EfficientStrategy(VarianceStrategy):
         if (gp is None or gp.n_contacts < self.initial_touches or state.touches < self.initial_touches
                 or not gp.positive_definite):
             return self.face_touches(state, count) or super().propose(state, count)
-        targets, approach, _, surface, _ = self.projected_candidates(state)
+        def shortlist(start):
+            targets, approach, scores, candidates = self.scored_candidates(state, start)
+            return targets, approach, scores, None, candidates
+        return self._touches_by_shortlist(state, count, shortlist) or self._uniform.propose(state, count)
+
+    def scored_candidates(self, state: ExplorationState, start: int = 0
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """Targets (k, 3), unit approach directions (k, 3) and scores (k,) of the ``shortlist``
+        most uncertain near-surface candidates from rank ``start``; and how many near-surface
+        candidates there are. Sets :attr:`last_scores` to this shortlist's terms."""
+        gp = state.gpis
+        targets, approach, _, surface, _ = self.projected_candidates(state, start)
+        candidates = len(surface)
         length = np.linalg.norm(approach, axis=1)
         targets, approach = targets[length > 1e-9], approach[length > 1e-9] / length[length > 1e-9, None]
         if len(surface) > self.surface_samples:
@@ -633,8 +654,7 @@ class EfficientStrategy(VarianceStrategy):
         scores = reduction * edge_factor * reach_factor / seconds
         self.last_scores = dict(targets=targets, planar=planar, reduction=reduction, p_edge=p_edge, reach=reach_factor,
                                 p_realign=p_realign, seconds=seconds, score=scores)
-        return (self._ranked_touches(targets, approach, scores, state, count)
-                or self._uniform.propose(state, count))
+        return targets, approach, scores, candidates
 
 
 STRATEGIES = {cls.name: cls for cls in (UniformStrategy, RandomStrategy, VarianceStrategy,

@@ -95,6 +95,26 @@ def test_efficient_avoids_the_neighbourhood_of_unreachable_targets():
     assert np.all(strategy.last_scores["reach"][near] < 0.7)
 
 
+def test_efficient_looks_past_a_shortlist_it_has_ruled_out():
+    """Every shortlisted candidate lies where a pad already went: the next shortlist is scored,
+    and its best candidate away from those points is proposed instead of a ``uniform`` touch."""
+    gp = _upper_sphere_gp()
+    strategy = EfficientStrategy(shortlist=10)
+    points, variance = strategy.surface_variance(ExplorationState(PRIOR, gp, touches=40))
+    passed = points[np.argsort(-variance)[:10]]
+    state = ExplorationState(PRIOR, gp, touches=40, passed_m=list(passed))
+    first = strategy.scored_candidates(state, 0)[0]
+    assert np.all(np.min(np.linalg.norm(first[:, None] - passed[None], axis=-1), axis=1) < strategy.passed_radius_m)
+    touches = strategy.propose(state, 2)
+    assert [t.strategy for t in touches] == ["efficient"] * 2
+    for start in range(10, len(points), 10):                   # the first shortlist with a candidate left
+        targets, _, scores, _ = strategy.scored_candidates(state, start)
+        away = np.min(np.linalg.norm(targets[:, None] - passed[None], axis=-1), axis=1) > strategy.passed_radius_m
+        if away.any():
+            break
+    np.testing.assert_allclose(touches[0].target_m, targets[away][np.argmax(scores[away])], atol=1e-12)
+
+
 class _TwoPosePlanner:
     """Pose 0 for approaches with a positive x component, pose 1 otherwise."""
 
