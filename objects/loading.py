@@ -302,12 +302,16 @@ def _merge_parts(path: pathlib.Path, parts: list[trimesh.Trimesh]) -> tuple[trim
                          "merge them in a mesh editor")
     if len(united) < 2:
         return outer, [f"turned {len(flipped)} inside-out part outward"] if flipped else []
-    what = (f"merged {len(united)} overlapping or touching parts into their outer surface (boolean union)"
-            + (f", {len(flipped)} of them turned outward first" if flipped else "")
-            + (f", {len(cavities)} inner shells kept as cavities" if cavities else ""))
     pieces = sum(1 for body in outer.split(only_watertight=False) if body.volume > 0)
-    if pieces > 1:
-        what += f"; {pieces} separate pieces remain (they do not touch)"
+    details = ((f", {len(flipped)} of them turned outward first" if flipped else "")
+               + (f", {len(cavities)} inner shells kept as cavities" if cavities else ""))
+    if pieces >= len(united):
+        what = (f"its {len(united)} parts do not touch one another{details}; they are explored and "
+                f"scored as one object of {pieces} separate pieces (remove the others in a mesh editor "
+                "if only one is the object)")
+    else:
+        what = (f"merged {len(united)} overlapping or touching parts into their outer surface (boolean union)"
+                + details + (f"; {pieces} separate pieces remain (they do not touch)" if pieces > 1 else ""))
     return outer, [what]
 
 

@@ -184,6 +184,23 @@ def test_two_overlapping_parts_are_merged_into_their_union_with_a_warning(tmp_pa
                                                    np.maximum(size_a / 2, shift + size_b / 2)], atol=1e-6)
 
 
+def test_parts_that_do_not_touch_are_kept_apart_and_the_warning_says_so(tmp_path):
+    a = trimesh.creation.box(extents=(0.06, 0.06, 0.06))
+    b = trimesh.creation.box(extents=(0.04, 0.04, 0.04))
+    b.apply_translation([0.1, 0.0, 0.0])
+    c = trimesh.creation.box(extents=(0.04, 0.04, 0.04))
+    c.apply_translation([0.1, 0.02, 0.0])                       # overlaps b, not a
+    path = tmp_path / "scene.stl"
+    trimesh.util.concatenate([a, b]).export(path)
+    with pytest.warns(UserWarning, match=r"its 2 parts do not touch one another; .* 2 separate pieces"):
+        model = objects.load(path, cache_dir=tmp_path / "cache")
+    assert model.mesh.body_count == 2
+    assert model.mesh.volume == pytest.approx(0.06**3 + 0.04**3, rel=1e-6)
+    trimesh.util.concatenate([a, b, c]).export(path)
+    with pytest.warns(UserWarning, match=r"merged 3 overlapping or touching parts .*; 2 separate pieces remain"):
+        model = objects.load(path, cache_dir=tmp_path / "cache")
+    assert model.mesh.body_count == 2
+
 @pytest.mark.parametrize("suffix", [".obj", ".stl"])
 def test_parts_touching_along_a_face_become_one_body(tmp_path, suffix):
     """Two cubes sharing a face: an OBJ keeps each part's vertices; an STL is a triangle soup whose
