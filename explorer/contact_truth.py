@@ -33,7 +33,10 @@ class ContactTruth:
     Attributes
     ----------
     position_error_m : (n,) float
-        Distance of each contact to the true surface, metres.
+        Distance of each contact to the true surface, metres: to the nearest part of it the pad
+        could have pressed on (faces within 90 deg of the measured normal,
+        :meth:`objects.proximity.MeshProximity.query_facing`), so a contact measured more than half
+        way through a thin wall is charged from the face it was on, not the wall's other side.
     normal_error_rad : (n,) float
         Angle between each measured normal and the true normal cone at the closest point (the
         closest face's normal inside a face, any normal between the faces' normals on an edge:
@@ -86,7 +89,7 @@ def contact_truth(points: np.ndarray, normals: np.ndarray, mesh, sharp_edges: np
     points = np.asarray(points, float).reshape(-1, 3)
     normals = np.asarray(normals, float).reshape(-1, 3)
     proximity = MeshProximity(mesh)
-    closest, distance, face = proximity.query(points)
+    closest, distance, face = proximity.query_facing(points, normals)
     true_normal = mesh.face_normals[face]
     sample_points, sample_faces = trimesh.sample.sample_surface_even(mesh, samples, seed=seed)
     sample_normals = mesh.face_normals[sample_faces]
@@ -98,7 +101,8 @@ def contact_truth(points: np.ndarray, normals: np.ndarray, mesh, sharp_edges: np
             cosines = cosines[cosines > np.cos(np.radians(100.0))]
             spread[i] = float(np.arccos(np.clip(cosines.min(), -1.0, 1.0))) if len(cosines) else 0.0
     outside = np.einsum("ij,ij->i", points - closest, true_normal) >= 0.0
-    return ContactTruth(distance, proximity.normal_cone_error(points, normals), segment_distance(closest, sharp_edges), spread,
+    return ContactTruth(distance, proximity.normal_cone_error(points, normals, facing=True),
+                        segment_distance(closest, sharp_edges), spread,
                         closest, true_normal, np.where(outside, distance, -distance))
 
 
@@ -151,7 +155,8 @@ def with_true_contacts(records: list, mesh, worse_than_m: float = 0.0, leave_out
     measured without error: what the run's reconstruction would have been given had the pipeline
     measured those contacts exactly (``scripts/contact_error_cost.py``).
 
-    Such a contact becomes its true closest point with the outward normal of the face holding it
+    Such a contact becomes its true closest point (on the faces its measured normal could have
+    pressed on, :meth:`objects.proximity.MeshProximity.query_facing`) with the outward normal of the face holding it
     (a copy; its target, approach and the rest as recorded, so its swept line now ends at the true
     point); only its position or only its normal with ``normals`` or ``positions`` False; with
     ``leave_out`` it is left out instead, swept line and all. Every other touch is passed on as it is.
@@ -179,7 +184,12 @@ def with_true_contacts(records: list, mesh, worse_than_m: float = 0.0, leave_out
     contacts = [i for i, r in enumerate(records) if r.kind == "contact"]
     if not contacts:
         return list(records), 0
-    closest, distance, face = MeshProximity(mesh).query(np.array([records[i].position_m for i in contacts], float))
+    points = np.array([records[i].position_m for i in contacts], float)
+    measured = [records[i].normal for i in contacts]
+    if all(n is not None for n in measured):
+        closest, distance, face = MeshProximity(mesh).query_facing(points, np.array(measured, float))
+    else:
+        closest, distance, face = MeshProximity(mesh).query(points)
     changed = {i: k for k, i in enumerate(contacts) if distance[k] > worse_than_m}
     out = []
     for i, record in enumerate(records):

@@ -34,7 +34,10 @@ def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray) 
         of an edge the contact sits on counts as right), ``contact_normal_error_closest_face_mean_deg``
         (the angle to the one closest face's normal, as before 2026-11-26: on an edge it depends on
         which face the search returns) and ``contact_position_error_rms_mm`` (distance of the
-        contacts to the truth); the
+        contacts to the truth). All three take the closest point among the faces the pad could
+        have pressed on, those within 90 deg of the measured normal
+        (:meth:`objects.proximity.MeshProximity.query_facing`; since 2026-11-28): a contact
+        measured more than half way through a thin wall is not scored against the far face; the
         topology of both (``topology``, ``truth_topology``:
         :class:`reconstruction.topology.Topology`) and what the reconstruction has too many of,
         ``extra_handles`` (holes through thin walls, bridges) and ``extra_components``; ``recess``
@@ -55,11 +58,12 @@ def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray) 
                   recess=asdict(recess_error(mesh, truth, points if len(points) else None, COVERAGE_RADIUS_M)))
     if len(points):
         proximity = MeshProximity(truth)
-        _, distance, face = proximity.query(points)
+        _, distance, face = proximity.query_facing(points, normals)
         cosines = np.clip(np.sum(normals * truth.face_normals[face], axis=1), -1.0, 1.0)
         errors.update(coverage=contact_coverage(points, truth, COVERAGE_RADIUS_M),
                       coverage_radius_m=COVERAGE_RADIUS_M,
-                      contact_normal_error_mean_deg=float(np.degrees(proximity.normal_cone_error(points, normals)).mean()),
+                      contact_normal_error_mean_deg=float(np.degrees(
+                          proximity.normal_cone_error(points, normals, facing=True)).mean()),
                       contact_normal_error_closest_face_mean_deg=float(np.degrees(np.arccos(cosines)).mean()),
                       contact_position_error_rms_mm=float(1e3 * np.sqrt(np.mean(distance ** 2))))
     return errors

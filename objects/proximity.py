@@ -9,6 +9,10 @@ a k-d tree of face centroids written here before: the same distances (to 1e-16 m
 Where that point lies on an edge or a vertex, every normal between the normals of the faces meeting
 there is a true normal (the normal cone); measuring against the one face the search happened to
 return would charge a pad lying across a box edge with the full dihedral angle.
+
+:meth:`MeshProximity.query_facing` takes the closest point among the faces a pad could have pressed
+on (outward normal within 90 deg of the measured one): a contact measured more than half way
+through a thin wall is scored from the face it was on, not against the far face's opposite normal.
 """
 from __future__ import annotations
 
@@ -126,6 +130,44 @@ class MeshProximity:
                                                               np.ascontiguousarray(points))
         return closest, np.sqrt(squared), self._face_ids[face]
 
+    def query_facing(self, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Closest point on the faces a pad measuring ``normals`` could have pressed on.
+
+        A pad presses a face from outside, so the face it met has an outward normal within 90 deg
+        of the (outward) normal it measured. The plain closest point is that face's unless a
+        contact lies more than half way through a thin wall: a contact measured 4 mm inside the
+        outer face of a 6 mm wall is 2 mm from the inner face, whose normal is opposite. Here only
+        faces with ``face_normal . normal > 0`` count; where no face does, the plain closest point.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Query points (measured contacts), mesh frame and units.
+        normals : (n, 3) float
+            Outward normals measured there (need not be unit length).
+
+        Returns
+        -------
+        closest, distance, face : as :meth:`query`
+        """
+        points = np.asarray(points, float).reshape(-1, 3)
+        normals = np.asarray(normals, float).reshape(-1, 3)
+        if len(normals) != len(points):
+            raise ValueError(f"got {len(points)} points but {len(normals)} normals")
+        closest, distance, face = self.query(points)
+        full_normals = np.zeros((int(self._face_ids.max()) + 1, 3))
+        full_normals[self._face_ids] = self._normals
+        for i in np.flatnonzero(np.einsum("ij,ij->i", full_normals[face], normals) <= 0.0):
+            facing = np.flatnonzero(self._normals @ normals[i] > 0.0)
+            if not len(facing):
+                continue
+            tri = self._triangles[facing]
+            on = closest_on_triangles(np.repeat(points[i][None], len(facing), 0), tri[:, 0], tri[:, 1], tri[:, 2])
+            gap = np.linalg.norm(on - points[i], axis=1)
+            k = int(np.argmin(gap))
+            closest[i], distance[i], face[i] = on[k], gap[k], self._face_ids[facing[k]]
+        return closest, distance, face
+
     def faces_at(self, surface_points: np.ndarray, tolerance: float = 0.0) -> list[np.ndarray]:
         """The faces passing within ``tolerance`` of each surface point.
 
@@ -161,7 +203,7 @@ class MeshProximity:
         return near[within], on[within]
 
     def normal_cone_error(self, points: np.ndarray, normals: np.ndarray,
-                          tolerance: float = NORMAL_CONE_TOLERANCE) -> np.ndarray:
+                          tolerance: float = NORMAL_CONE_TOLERANCE, facing: bool = False) -> np.ndarray:
         """Angle between each normal and the mesh's normal cone at the point's closest surface point.
 
         The cone at a surface point is spanned by the normals of the faces passing within
@@ -182,6 +224,9 @@ class MeshProximity:
         tolerance : float
             Mesh units; the default is 0.1 mm for a mesh in metres, the discretisation error the
             project's truth meshes promise (``tests/test_objects.py``).
+        facing : bool
+            Measure at the closest point of :meth:`query_facing` (the faces the pad could have
+            pressed on) instead of the plain closest point.
 
         Returns
         -------
@@ -189,13 +234,15 @@ class MeshProximity:
         """
         points = np.asarray(points, float).reshape(-1, 3)
         normals = np.asarray(normals, float).reshape(-1, 3)
-        _, distance, _ = self.query(points)
         if len(normals) != len(points):
             raise ValueError(f"got {len(points)} points but {len(normals)} normals")
+        _, distance, _ = self.query_facing(points, normals) if facing else self.query(points)
         reach = tolerance + self._on_face_tolerance
         errors = np.empty(len(points))
         for i, (point, normal) in enumerate(zip(points, normals)):
-            _, nearest = self._faces_within(point, distance[i] + reach)  # every (almost) closest point
+            ids, nearest = self._faces_within(point, distance[i] + reach)  # every (almost) closest point
+            if facing and np.any(self._normals[ids] @ normal > 0.0):
+                nearest = nearest[self._normals[ids] @ normal > 0.0]
             errors[i] = min(angle_to_cone(normal, self._normals[self._faces_within(at, reach)[0]])
                             for at in nearest)
         return errors

@@ -120,3 +120,49 @@ def test_metrics_charge_a_contact_across_an_edge_nothing_for_a_normal_between_it
     errors = reconstruction_errors(mesh, cube, point, unit([[1.0, 0.0, 1.0]]))
     assert errors["contact_normal_error_mean_deg"] == pytest.approx(0.0, abs=1e-9)
     assert errors["contact_normal_error_closest_face_mean_deg"] == pytest.approx(45.0, abs=1e-6)
+
+
+def test_a_contact_past_the_middle_of_a_thin_wall_is_measured_from_the_face_it_was_on():
+    """6 mm wall, a contact measured 4 mm below its top face with the top's normal: the plain
+    closest point is the bottom face (2 mm, opposite normal); the pad can only have pressed the top."""
+    slab = trimesh.creation.box((0.1, 0.1, 0.006))
+    proximity = MeshProximity(slab)
+    point, up = np.array([[0.01, 0.02, -0.001]]), np.array([[0.0, 0.1, 1.0]])
+    _, plain, _ = proximity.query(point)
+    closest, distance, face = proximity.query_facing(point, up)
+    assert plain[0] == pytest.approx(0.002, abs=1e-12)
+    assert distance[0] == pytest.approx(0.004, abs=1e-12)
+    np.testing.assert_allclose(closest[0], [0.01, 0.02, 0.003], atol=1e-12)
+    np.testing.assert_allclose(slab.face_normals[face[0]], [0.0, 0.0, 1.0])
+    assert np.degrees(proximity.normal_cone_error(point, unit(up))[0]) > 170.0
+    assert np.degrees(proximity.normal_cone_error(point, unit(up), facing=True)[0]) == pytest.approx(
+        np.degrees(np.arctan(0.1)), abs=1e-9)
+    errors = reconstruction_errors(slab.copy(), slab, point, unit(up))
+    assert errors["contact_position_error_rms_mm"] == pytest.approx(4.0, abs=1e-9)
+    assert errors["contact_normal_error_mean_deg"] == pytest.approx(np.degrees(np.arctan(0.1)), abs=1e-9)
+
+
+def test_facing_closest_points_match_trimesh_on_the_facing_faces():
+    """Independent answer: trimesh's closest point on the sub-mesh of faces within 90 deg of each
+    normal; and where the plain closest face already faces the normal, the plain query."""
+    ring = trimesh.creation.annulus(r_min=0.028, r_max=0.034, height=0.05, sections=48)
+    rng = np.random.default_rng(7)
+    on, faces = trimesh.sample.sample_surface(ring, 60, seed=7)
+    normals = unit(ring.face_normals[faces] + rng.normal(scale=0.3, size=(60, 3)))
+    points = on - ring.face_normals[faces] * rng.uniform(0.0, 0.006, (60, 1))   # up to through the wall
+    proximity = MeshProximity(ring)
+    plain_closest, plain, plain_face = proximity.query(points)
+    closest, distance, face = proximity.query_facing(points, normals)
+    moved = 0
+    for i in range(60):
+        facing = np.flatnonzero(ring.face_normals @ normals[i] > 0)
+        sub = ring.submesh([facing], append=True)
+        expected, gap, _ = trimesh.proximity.closest_point(sub, points[i][None])
+        assert distance[i] == pytest.approx(gap[0], abs=1e-6)         # trimesh comes within 0.5 um
+        assert distance[i] <= gap[0] + 1e-12
+        assert ring.face_normals[face[i]] @ normals[i] > 0
+        if ring.face_normals[plain_face[i]] @ normals[i] > 0:
+            assert distance[i] == pytest.approx(plain[i], abs=1e-12)
+        else:
+            moved += 1
+    assert moved > 0                                             # some went past the wall's middle
