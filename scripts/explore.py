@@ -81,9 +81,16 @@ def main(argv: list[str] | None = None) -> int:
         from explorer.sim_profile import get_profile
 
         try:
-            get_profile(args.profile)
+            profile = get_profile(args.profile)
         except ValueError as error:
             parser.error(f"--profile: {error}")
+        if args.calibration is None and not args.resume and (profile.joint_offset_std_deg or profile.link_length_std_mm):
+            print(f"tactile-explore: note: profile {profile.name!r} draws the arm's calibration errors (joint offsets "
+                  f"{profile.joint_offset_std_deg:g} deg, link lengths {profile.link_length_std_mm:g} mm RMS) and this run "
+                  f"does not calibrate them, so its contacts carry them (4-5 mm RMS on ARMAR-III), as an uncalibrated lab arm's do. "
+                  f"Calibrate first: python -m scripts.calibrate_joints --profile {args.profile} --robot "
+                  f"{args.robot or 'armar3'} --seed {args.seed or 0} --out DIR, then --calibration "
+                  f"DIR/joint_calibration.json", file=sys.stderr)
     if args.calibration is not None:
         _check_calibration(parser, args)
     check_out_dir(parser, args.out, resume=args.resume)

@@ -133,6 +133,26 @@ def test_cli_refuses_a_bad_profile_with_exit_2(tmp_path, capsys):
     assert "imu_latency_s must be >= 0" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("profile, noted", [("hardware-like", True), ("datasheet-noise", False), ("ideal", False)])
+def test_explore_notes_an_uncalibrated_arm_once_before_it_runs(tmp_path, capsys, profile, noted):
+    """A profile that draws joint-offset or link-length errors, run without ``--calibration``: one
+    line that says so and gives the calibration command (stopped here by an unusable --out)."""
+    from scripts import explore
+
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "something").write_text("x")                        # not empty: refused after the note
+    with pytest.raises(SystemExit) as exit_info:
+        explore.main(["--profile", profile, "--seed", "3", "--out", str(out)])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    notes = [line for line in err.splitlines() if "note: profile" in line]
+    assert len(notes) == (1 if noted else 0)
+    if noted:
+        expected = get_profile(profile)
+        assert f"joint offsets {expected.joint_offset_std_deg:g} deg" in notes[0]
+        assert "python -m scripts.calibrate_joints --profile hardware-like --robot armar3 --seed 3" in notes[0]
+
 def test_rig_config_names_the_profile(tmp_path):
     from explorer.config import config_from_dict
 
