@@ -352,7 +352,9 @@ def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path) -> Obj
         repairs += merged
     repairs = list(dict.fromkeys(repairs))
     if repairs:
-        warnings.warn(f"{path}: repaired mesh: {'; '.join(repairs)}", stacklevel=3)
+        # Attributed here, not to the caller: Python's default filter then shows it once per
+        # process, where a command checks the file and then loads it again into the simulation.
+        warnings.warn(f"{path}: repaired mesh: {'; '.join(repairs)}", stacklevel=1)
 
     name = path.stem
     folder = _cache_folder(path, scale, cache_dir)
