@@ -333,13 +333,15 @@ class SessionReplay:
         # The simulated stand sits at the robot's workspace centre (explorer.simulation.build_scene).
         self.stand_centre_m = np.asarray(configuration.get("stand_centre_m", spec.workspace_center_m), float)
         self.truth = None
+        self.truth_note = None
         self.prior = None
         object_name = self.metadata.get("object")
         if isinstance(object_name, str):
             try:
                 self.truth = objects.load(object_name).mesh
-            except (ValueError, FileNotFoundError):
-                self.truth = None
+            except (ValueError, FileNotFoundError) as error:
+                self.truth_note = (f"object {object_name!r} not loaded ({error}): no errors against the truth; "
+                                   "a mesh file named relative to where the run was made loads from there")
         recorded_prior = configuration.get("prior")
         if recorded_prior is not None:  # the box the run's GPIS was bounded by
             self.prior = ObjectPrior(recorded_prior["centre_m"], recorded_prior["half_extent_m"])
@@ -352,6 +354,8 @@ class SessionReplay:
     def run(self, settings: ReplaySettings = ReplaySettings(), out_dir: Path | None = None) -> ReplayResult:
         """Detect, recompute, refit; write the outputs to ``out_dir`` when given."""
         notes: list[str] = list(self.reading_notes)
+        if self.truth_note is not None and self.metadata.get("backend", "simulation") == "simulation":
+            notes.append(self.truth_note)
         if self.truncated_files:
             notes.append("cut off mid-record (last incomplete line ignored): " + ", ".join(self.truncated_files))
         detector_config = self._detector_config(settings)

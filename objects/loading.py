@@ -67,8 +67,9 @@ def in_metres(name_or_path: str | os.PathLike, units: str = "m", *,
               cache_dir: str | os.PathLike | None = None) -> str:
     """The name to pass on for ``name_or_path`` whose mesh file is in ``units``.
 
-    Registry and generated names, and mesh files in metres, come back unchanged (a mesh file and a
-    generated name are checked: the errors of :func:`load`). A mesh file in
+    Registry and generated names come back unchanged, a mesh file in metres as its absolute path
+    (so a session recorded with it names a file a replay from another directory finds; a mesh
+    file and a generated name are checked: the errors of :func:`load`). A mesh file in
     other units is loaded (checked, repaired) with that scale, and the path of its cleaned copy in
     metres (in the cache) is returned, so code that only takes a name (the simulation, a sweep
     worker, a resumed run) loads the right size. The command-line ``--units`` flag uses this.
@@ -76,7 +77,7 @@ def in_metres(name_or_path: str | os.PathLike, units: str = "m", *,
     factor = units_scale(units)
     if is_mesh_file_name(name_or_path):
         model = load(name_or_path, scale=factor, cache_dir=cache_dir)  # checks it now, not mid-run
-        return str(name_or_path) if factor == 1.0 else str(model.mesh_path)
+        return os.path.abspath(name_or_path) if factor == 1.0 else str(model.mesh_path)
     if factor != 1.0:
         raise ValueError(f"--units {units} applies to mesh files only, not to {str(name_or_path)!r}")
     if generated.is_generated_name(name_or_path):

@@ -251,6 +251,17 @@ def test_a_mesh_made_too_small_by_a_wrong_unit_is_refused_naming_metres(tmp_path
     assert objects.in_metres(path, "m", cache_dir=tmp_path) == str(path)  # metres: the file itself
 
 
+def test_a_mesh_file_named_relative_to_here_is_passed_on_as_an_absolute_path(tmp_path, monkeypatch):
+    """So a session recorded with it names a file that a replay from another directory finds."""
+    (tmp_path / "parts").mkdir()
+    trimesh.creation.box(extents=(0.12, 0.08, 0.06)).export(tmp_path / "parts" / "part.stl")
+    monkeypatch.chdir(tmp_path)
+    name = objects.in_metres("parts/part.stl", "m", cache_dir=tmp_path / "cache")
+    assert name == str(tmp_path / "parts" / "part.stl")
+    monkeypatch.chdir(tmp_path / "parts")
+    np.testing.assert_allclose(objects.load(name).extent_m, [0.12, 0.08, 0.06], atol=1e-9)
+
+
 def test_units_are_checked():
     with pytest.raises(ValueError, match="unknown length unit 'furlong'; choose from m, cm, mm, in"):
         objects.units_scale("furlong")

@@ -160,6 +160,22 @@ def test_a_difference_from_the_recording_is_a_note(session):
     assert sum("recorded contact, replayed miss" in note for note in result.notes) == result.metrics["recorded_contacts"]
 
 
+def test_a_truth_that_does_not_load_is_a_note_not_a_silent_gap(sphere_run, recorded_replay, tmp_path):
+    """A session naming a mesh file that is not there (moved, or named relative to another
+    directory): the replay still reconstructs, and says why it has no errors against the truth."""
+    copy = tmp_path / "session"
+    shutil.copytree(sphere_run.out_dir / "session", copy)
+    metadata = json.loads((copy / "metadata.json").read_text())
+    metadata["object"] = "elsewhere/cup.stl"
+    (copy / "metadata.json").write_text(json.dumps(metadata))
+    replay = SessionReplay(copy)
+    result = replay.run(ReplaySettings(figures=False))
+    notes = [note for note in result.notes if "not loaded" in note]
+    assert len(notes) == 1 and notes[0].startswith("object 'elsewhere/cup.stl' not loaded")
+    assert replay.truth is None and SessionReplay(sphere_run.out_dir / "session").truth is not None
+    assert result.metrics["n_contacts_fitted"] == recorded_replay.metrics["n_contacts_fitted"]
+    assert not any("not loaded" in note for note in recorded_replay.notes)
+
 def test_a_press_replayed_as_one_on_the_pads_side_keeps_where_the_pad_was(sphere_run):
     """With a side-press force out of reach every press is one on the pad's side: replay keeps the
     pad-face centre (encoders' forward kinematics, object frame), within the spring's tilt of the
