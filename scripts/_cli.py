@@ -171,3 +171,20 @@ def check_ray_address(parser: argparse.ArgumentParser, address: str | None, opti
     except OSError as error:
         parser.error(f"{option} {address}: no Ray cluster answers there ({error}); start one with "
                      f"'ray start --head' or use {option} local")
+
+
+def recorded_object(prog: str, run, name: str):
+    """The :class:`objects.ObjectModel` a recorded run names, or a usage error (exit 2) naming the
+    run, the object and the fix: a mesh file named relative to where the run was made (runs
+    recorded before 2026-11-28) loads only from that directory."""
+    import sys
+
+    import objects
+
+    try:
+        return objects.load(name)
+    except (ValueError, FileNotFoundError) as error:
+        print(f"{prog}: error: {run}: its object {name!r} does not load ({error}); run this from the directory "
+              "the run was made in (runs recorded since 2026-11-28 name a mesh file by its absolute path)",
+              file=sys.stderr)
+        raise SystemExit(EXIT_USAGE) from None

@@ -66,7 +66,8 @@ def error_cost(run: Path, worse_than_m: float, mesh_resolution: int | None = Non
     replay = SessionReplay(run / "session")
     if replay.truth is None:
         raise ValueError(f"{run}: the run's object {replay.metadata.get('object')!r} has no known truth "
-                         "(a simulated run of a registry or generated object is needed)")
+                         "(a simulated run of a registry or generated object or of a mesh file that loads is "
+                         f"needed){': ' + replay.truth_note if replay.truth_note else ''}")
     settings = ReplaySettings(figures=False, mesh_resolution=mesh_resolution)
     replayed = replay.run(settings).touches
     resolution = replay.mesh_resolution(settings)

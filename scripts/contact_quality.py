@@ -111,14 +111,14 @@ def _quality_dict(quality) -> dict:
     return {k: v for k, v in asdict(quality).items() if v is not None}
 
 
-def analyse(object_name: str, rows: list[dict]):
+def analyse(object_name: str, rows: list[dict], run: Path | None = None):
     """Per-contact table (list of dicts) with the truth errors and local shape added."""
-    import objects
     from explorer.contact_truth import contact_truth
+    from scripts._cli import recorded_object
 
     if not rows:
         return []
-    model = objects.load(object_name)
+    model = recorded_object("contact_quality", run, object_name)
     truth = contact_truth(np.array([r["position_m"] for r in rows]), np.array([r["normal"] for r in rows]),
                           model.mesh, model.sharp_edges)
     out = []
@@ -233,7 +233,7 @@ def main(argv=None) -> int:
           "trusted: pos / normal | doubtful: pos / normal |\n|---|---|---|---|---|---|---|---|---|")
     for run in args.runs:
         name, rows = run_contacts(run, args.replay, None if args.compliance is None else 1e-3 * args.compliance)
-        rows_table = analyse(name, rows)
+        rows_table = analyse(name, rows, run)
         table += rows_table
         s = summary(rows_table)
         per_run[str(run)] = dict(object=name, **s)

@@ -19,7 +19,6 @@ def breakdown_of(run_dir: Path, metrics: dict, samples: int) -> dict:
     """The run's breakdown, computed afresh (the run's object, robot and seed)."""
     import numpy as np
 
-    import objects
     import robots
     from explorer.coverage import reach_breakdown
     from explorer.planner import ApproachPlanner
@@ -28,8 +27,9 @@ def breakdown_of(run_dir: Path, metrics: dict, samples: int) -> dict:
     from explorer.rig import object_prior
     from robots.ik import PadIK
     from robots.kinematics import ArmKinematics
+    from scripts._cli import recorded_object
 
-    truth = objects.load(metrics["object"]).mesh
+    truth = recorded_object("reach_report", run_dir, metrics["object"]).mesh
     spec = robots.load(metrics.get("robot", "armar3"))
     kin = ArmKinematics(spec)
     stand = SimulatedStand(lambda position, quat: None, np.asarray(spec.workspace_center_m, float),

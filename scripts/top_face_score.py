@@ -24,14 +24,14 @@ def main(argv: list[str] | None = None) -> int:
                 parser.error(f"{run} has no {name}: give the output directory of a finished run")
     import trimesh
 
-    import objects
     from explorer.evaluation import top_face_height_error
+    from scripts._cli import recorded_object
 
     print("| run | object | normals | touches | position RMSE (mm) | top-face RMSE (mm) | top-face max (mm) | rays missed |")
     print("|---|---|---|---|---|---|---|---|")
     for run in args.runs:
         metrics = json.loads((run / "metrics.json").read_text())
-        truth = objects.load(metrics["object"]).mesh
+        truth = recorded_object("top-face-score", run, metrics["object"]).mesh
         mesh = trimesh.load(run / "reconstruction.ply", force="mesh")
         try:
             top = top_face_height_error(mesh, truth, inset_m=1e-3 * args.inset_mm)

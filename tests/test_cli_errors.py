@@ -332,3 +332,23 @@ def test_explore_refuses_a_calibration_of_another_arm_or_none_at_all(tmp_path, c
                                   "--out", str(tmp_path / "run")], capsys)
     assert status == 2 and "--calibration: calibration file not found" in last_line(err)
     assert not (tmp_path / "run").exists()
+
+
+
+def test_a_run_whose_mesh_file_does_not_load_is_one_usage_line(tmp_path, capsys):
+    """A run recorded with a mesh file named relative to another directory: the run-reading scripts
+    stop with one line naming the run, the object and the fix, not a traceback."""
+    from scripts import reach_report
+    from scripts._cli import recorded_object
+
+    assert recorded_object("x", tmp_path, "sphere").name == "sphere"
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "metrics.json").write_text(json.dumps({"object": "parts/cup.stl", "robot": "armar3", "seed": 0}))
+    with pytest.raises(SystemExit) as exit_info:
+        reach_report.main([str(run), "--recompute"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert err[0].startswith(f"reach_report: error: {run}: its object 'parts/cup.stl' does not load")
+    assert "run this from the directory the run was made in" in err[0]
