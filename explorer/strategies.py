@@ -355,19 +355,19 @@ class VarianceStrategy(TouchStrategy):
         gp = state.gpis
         if gp is None or gp.n_contacts < self.initial_touches or state.touches < self.initial_touches:
             return self._uniform.propose(state, count)
-        def shortlist(start):
+        def candidates_from(start):
             targets, approach, variance, surface, resolved = self.projected_candidates(state, start)
             return targets, approach, variance, resolved, len(surface)
-        return self._touches_by_shortlist(state, count, shortlist) or self._uniform.propose(state, count)
+        return self._touches_by_shortlist(state, count, candidates_from) or self._uniform.propose(state, count)
 
-    def _touches_by_shortlist(self, state: ExplorationState, count: int, shortlist) -> list[Touch]:
-        """Up to ``count`` ranked touches from ``shortlist(start)`` (targets, approach, scores,
+    def _touches_by_shortlist(self, state: ExplorationState, count: int, candidates_from) -> list[Touch]:
+        """Up to ``count`` ranked touches from ``candidates_from(start)`` (targets, approach, scores,
         resolved or None, and the number of near-surface candidates), taking the next shortlist
         while the avoided and passed points leave fewer than ``count``."""
         touches: list[Touch] = []
         start = 0
         while len(touches) < count:
-            targets, approach, scores, resolved, candidates = shortlist(start)
+            targets, approach, scores, resolved, candidates = candidates_from(start)
             touches = self._ranked_touches(targets, approach, scores, state, count, resolved, touches)
             start += self.shortlist
             if start >= candidates:
@@ -608,10 +608,10 @@ class EfficientStrategy(VarianceStrategy):
         if (gp is None or gp.n_contacts < self.initial_touches or state.touches < self.initial_touches
                 or not gp.positive_definite):
             return self.face_touches(state, count) or super().propose(state, count)
-        def shortlist(start):
+        def candidates_from(start):
             targets, approach, scores, candidates = self.scored_candidates(state, start)
             return targets, approach, scores, None, candidates
-        return self._touches_by_shortlist(state, count, shortlist) or self._uniform.propose(state, count)
+        return self._touches_by_shortlist(state, count, candidates_from) or self._uniform.propose(state, count)
 
     def scored_candidates(self, state: ExplorationState, start: int = 0
                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
