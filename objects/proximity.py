@@ -92,7 +92,8 @@ class MeshProximity:
         if len(self._face_ids) == 0:
             raise ValueError("mesh has no face of positive area")
         self._triangles = triangles[self._face_ids]
-        self._normals = np.asarray(mesh.face_normals, float)[self._face_ids]
+        self._mesh_normals = np.asarray(mesh.face_normals, float)
+        self._normals = self._mesh_normals[self._face_ids]
         centroids = self._triangles.mean(axis=1)
         self._rho_max = float(np.max(np.linalg.norm(self._triangles - centroids[:, None], axis=2)))
         self._tree = cKDTree(centroids)  # for the faces near one point (the normal cone)
@@ -155,9 +156,7 @@ class MeshProximity:
         if len(normals) != len(points):
             raise ValueError(f"got {len(points)} points but {len(normals)} normals")
         closest, distance, face = self.query(points)
-        full_normals = np.zeros((int(self._face_ids.max()) + 1, 3))
-        full_normals[self._face_ids] = self._normals
-        for i in np.flatnonzero(np.einsum("ij,ij->i", full_normals[face], normals) <= 0.0):
+        for i in np.flatnonzero(np.einsum("ij,ij->i", self._mesh_normals[face], normals) <= 0.0):
             facing = np.flatnonzero(self._normals @ normals[i] > 0.0)
             if not len(facing):
                 continue
@@ -241,8 +240,9 @@ class MeshProximity:
         errors = np.empty(len(points))
         for i, (point, normal) in enumerate(zip(points, normals)):
             ids, nearest = self._faces_within(point, distance[i] + reach)  # every (almost) closest point
-            if facing and np.any(self._normals[ids] @ normal > 0.0):
-                nearest = nearest[self._normals[ids] @ normal > 0.0]
+            if facing:
+                facing_ids = self._normals[ids] @ normal > 0.0
+                nearest = nearest[facing_ids] if facing_ids.any() else nearest
             errors[i] = min(angle_to_cone(normal, self._normals[self._faces_within(at, reach)[0]])
                             for at in nearest)
         return errors
