@@ -1,14 +1,18 @@
-"""Load a ground-truth object by registry name, generated name or from a user mesh file (OBJ, STL, PLY).
+"""Load a ground-truth object by registry name, generated name or from a user mesh file (OBJ, STL, PLY,
+OFF, GLB).
 
 A user mesh is checked (readable, non-empty, finite, plausible size in metres, watertight with
 outward normals), repaired where trimesh can do it (with a warning that says what changed), its
-overlapping or touching parts merged into their outer surface (boolean union, with a warning) and
-written with a URDF into a cache folder so PyBullet can load it. A generated object
+overlapping or touching parts merged into their outer surface (boolean union, with a warning); a
+surface that stays open (a scan with holes, open parts) is closed by its winding number
+(:mod:`objects.closing`, with a warning that says how much of it spans holes; refused when that is
+more than :data:`MAX_SPANNED_FRACTION`, an open shell rather than a solid). The result is written with a URDF into a cache folder so PyBullet can load it. A generated object
 (``generated:mug/3``, :mod:`objects.generated`) is rebuilt from its name and written to the same cache.
 """
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import pathlib
 import warnings
@@ -17,12 +21,13 @@ import numpy as np
 import trimesh
 
 from objects.catalogue import DATA_DIR, SPECS, mesh_filename, names, spec, urdf_filename
+from objects.closing import CLOSING_VERSION, close_surface
 from objects.features import sharp_edges
 from objects.files import obj_text, urdf_text
 from objects.generated import building as generated
 from objects.model import ObjectModel
 
-MESH_SUFFIXES = (".obj", ".stl", ".ply")
+MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb")
 #: Largest side of a user mesh's bounding box that is accepted as a hand-held object, metres.
 PLAUSIBLE_EXTENT_M = (0.01, 1.0)
 #: Length units a mesh file may be in: the command-line flag ``--units`` and its factor to metres.
@@ -31,7 +36,13 @@ UNIT_NAMES = {"m": "metres", "cm": "centimetres", "mm": "millimetres", "in": "in
 #: A typical hand-held object's largest side, metres: unit guesses aim at it.
 TYPICAL_EXTENT_M = 0.1
 MERGE_TOLERANCE_M = 1e-6
+#: An open surface closed by its winding number is refused when more of the closed surface than this
+#: spans openings: it was a shell (a bowl modelled without thickness), not a solid with holes.
+MAX_SPANNED_FRACTION = 0.1
 USER_RGBA = (0.75, 0.75, 0.75, 1.0)
+#: Beside a closed mesh in the cache: what closing it did (read back instead of closing it again).
+CLOSED_NOTE = "closed.json"
+CLOSED_SUFFIX = ".closed.obj"
 
 
 def default_cache_dir() -> pathlib.Path:
@@ -205,11 +216,15 @@ def _mm(length_m: float) -> str:
     return f"{length_m * 1e3:.2f}" if length_m < 0.01 else f"{length_m * 1e3:.0f}"
 
 
+class _OpenSurface(ValueError):
+    """A surface trimesh's repairs leave open; the message says how."""
+
+
 def _repair(path: pathlib.Path, mesh: trimesh.Trimesh, orient: bool = True) -> list[str]:
     """Make ``mesh`` watertight with consistent winding, and with outward normals unless ``orient``
     is False (a part that may be a cavity), in place; return what was changed.
 
-    Raises ValueError naming the file when the mesh stays open or non-manifold.
+    Raises _OpenSurface when the mesh stays open or non-manifold.
     """
     repairs = []
     n_vertices = len(mesh.vertices)
@@ -231,9 +246,8 @@ def _repair(path: pathlib.Path, mesh: trimesh.Trimesh, orient: bool = True) -> l
     if not mesh.is_watertight:
         edges = mesh.edges_sorted
         _, counts = np.unique(edges, axis=0, return_counts=True)
-        raise ValueError(f"{path}: mesh is not watertight even after repair "
-                         f"({int(np.sum(counts == 1))} open edges, {int(np.sum(counts > 2))} edges shared "
-                         "by more than two faces); close the surface in a mesh editor")
+        raise _OpenSurface(f"the surface is open even after repair ({int(np.sum(counts == 1))} open "
+                           f"edges, {int(np.sum(counts > 2))} edges shared by more than two faces)")
     if not mesh.is_winding_consistent:
         trimesh.repair.fix_winding(mesh)
         repairs.append("made face winding consistent")
@@ -299,8 +313,7 @@ def _merge_parts(path: pathlib.Path, parts: list[trimesh.Trimesh]) -> tuple[trim
             cavity.invert()
         outer = trimesh.boolean.difference([outer, *cavities], engine="manifold")
     if not (outer.is_watertight and outer.volume > 0):
-        raise ValueError(f"{path}: the union of its {len(parts)} parts is not a closed surface; "
-                         "merge them in a mesh editor")
+        raise _OpenSurface(f"the union of its {len(parts)} parts is not a closed surface")
     if len(united) < 2:
         return outer, [f"turned {len(flipped)} inside-out part outward"] if flipped else []
     pieces = sum(1 for body in outer.split(only_watertight=False) if body.volume > 0)
@@ -330,13 +343,10 @@ def _write_if_changed(target: pathlib.Path, text: str) -> None:
     os.replace(temporary, target)
 
 
-def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path) -> ObjectModel:
-    if not (np.isfinite(scale) and scale > 0):
-        raise ValueError(f"scale must be a positive finite number, got {scale}")
-    mesh = _read_mesh(path)
-    if scale != 1.0:
-        mesh.apply_scale(scale)
-    _check_size(path, mesh, scale)
+def _repaired(path: pathlib.Path, mesh: trimesh.Trimesh, scale: float) -> tuple[trimesh.Trimesh, list[str]]:
+    """``mesh`` (a copy) made watertight by trimesh's repairs and the union of its parts, and what
+    was done; raises _OpenSurface when that does not close it."""
+    mesh = mesh.copy()
     removed = _remove_internal_face_pairs(mesh)
     repairs = [f"removed {removed} coincident faces where parts touch"] if removed else []
     # Parts meet at edges shared by more than two faces; split there (trimesh's face adjacency
@@ -351,17 +361,86 @@ def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path) -> Obj
             repairs += _repair(path, part, orient=False)
         mesh, merged = _merge_parts(path, parts)
         repairs += merged
+    return mesh, repairs
+
+
+def _closed(path: pathlib.Path, mesh: trimesh.Trimesh, why_open: str, note_path: pathlib.Path,
+            closed_path: pathlib.Path, mesh_path: pathlib.Path) -> tuple[trimesh.Trimesh, list[str]]:
+    """``mesh`` closed by its winding number (:func:`objects.closing.close_surface`) and what was
+    done, from the cache when this file was closed before (``note_path`` and the closed surface,
+    ``closed_path``, in the file's frame); the note names ``mesh_path``, what the simulator loads.
+
+    Raises ValueError naming the file when it cannot be closed or would be mostly made up.
+    """
+    cached = _cached_closing(note_path, closed_path)
+    if cached is not None:
+        return cached
+    try:
+        closed = close_surface(mesh)
+    except ValueError as error:
+        raise ValueError(f"{path}: {why_open}, and closing it by its winding number failed ({error}); "
+                         "close the surface in a mesh editor") from None
+    spanned = 100 * closed.spanned_fraction
+    if closed.spanned_fraction > MAX_SPANNED_FRACTION:
+        raise ValueError(f"{path}: {why_open}; closed by its winding number, {spanned:.0f} % of the surface "
+                         f"would span openings (at most {100 * MAX_SPANNED_FRACTION:.0f} %): an open shell, "
+                         "not a solid with holes; give its walls their thickness or close it in a mesh editor")
+    specks = f", {closed.specks_dropped} specks of the level set dropped" if closed.specks_dropped else ""
+    faces = (f"{len(closed.mesh.faces)} faces" if len(closed.mesh.faces) == closed.level_set_faces else
+             f"{len(closed.mesh.faces)} faces, decimated from {closed.level_set_faces}")
+    note = (f"{why_open}: closed it as the inside of its generalized winding number (libigl), meshed at "
+            f"{closed.spacing_m * 1e3:.2g} mm (marching cubes; {faces}): {spanned:.1f} % of the surface spans "
+            f"holes, sharp edges are rounded by up to ~{closed.spacing_m * 500:.2g} mm{specks}; check "
+            f"{mesh_path} or close the file in a mesh editor")
+    # Read back from the file the simulator loads, so that a run is the same whether this process
+    # closed the mesh or found it closed in the cache.
+    _write_if_changed(closed_path, obj_text(closed.mesh, f"{path.name} closed by objects.closing"))
+    _write_if_changed(note_path, json.dumps({"closing_version": CLOSING_VERSION, "note": note}))
+    read_back = _cached_closing(note_path, closed_path)
+    if read_back is None:
+        raise ValueError(f"{path}: {why_open}; its closed surface did not read back closed from {closed_path}")
+    return read_back
+
+
+def _cached_closing(note_path: pathlib.Path, closed_path: pathlib.Path) -> tuple[trimesh.Trimesh, list[str]] | None:
+    """The closed mesh and note written by :func:`_closed` for this file, or None (none, or made by
+    another closing version)."""
+    try:
+        note = json.loads(note_path.read_text())
+        if note.get("closing_version") != CLOSING_VERSION:
+            return None
+        mesh = trimesh.load(closed_path, file_type="obj", force="mesh", process=False)
+    except (OSError, ValueError):
+        return None
+    if not (isinstance(mesh, trimesh.Trimesh) and mesh.is_watertight and mesh.volume > 0):
+        return None
+    return mesh, [note["note"]]
+
+
+def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path) -> ObjectModel:
+    if not (np.isfinite(scale) and scale > 0):
+        raise ValueError(f"scale must be a positive finite number, got {scale}")
+    mesh = _read_mesh(path)
+    if scale != 1.0:
+        mesh.apply_scale(scale)
+    _check_size(path, mesh, scale)
+    name = path.stem
+    folder = _cache_folder(path, scale, cache_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    mesh_path, urdf_path = folder / f"{name}.obj", folder / f"{name}.urdf"
+    comment = f"{name}: from {path} (scale {scale:g}), checked by objects.load"
+    try:
+        mesh, repairs = _repaired(path, mesh, scale)
+    except _OpenSurface as open_surface:
+        mesh, repairs = _closed(path, mesh, str(open_surface), folder / CLOSED_NOTE,
+                                folder / f"{name}{CLOSED_SUFFIX}", mesh_path)
     repairs = list(dict.fromkeys(repairs))
     if repairs:
         # Attributed here, not to the caller: Python's default filter then shows it once per
         # process, where a command checks the file and then loads it again into the simulation.
         warnings.warn(f"{path}: repaired mesh: {'; '.join(repairs)}", stacklevel=1)
 
-    name = path.stem
-    folder = _cache_folder(path, scale, cache_dir)
-    folder.mkdir(parents=True, exist_ok=True)
-    mesh_path, urdf_path = folder / f"{name}.obj", folder / f"{name}.urdf"
-    _write_if_changed(mesh_path, obj_text(mesh, f"{name}: from {path} (scale {scale:g}), checked by objects.load"))
+    _write_if_changed(mesh_path, obj_text(mesh, comment))
     _write_if_changed(urdf_path, urdf_text(name, mesh_path.name, USER_RGBA))
     description = f"user mesh {path.name} (scale {scale:g}), {' x '.join(f'{e * 1e3:.1f}' for e in mesh.extents)} mm"
     return _model(name, description, mesh, mesh_path, urdf_path)

@@ -276,7 +276,7 @@ def icosphere(radius: float = 0.03) -> trimesh.Trimesh:
     return trimesh.creation.icosphere(subdivisions=2, radius=radius)
 
 
-@pytest.mark.parametrize("suffix", [".obj", ".stl", ".ply"])
+@pytest.mark.parametrize("suffix", [".obj", ".stl", ".ply", ".off", ".glb"])
 def test_user_mesh_round_trip_writes_a_cached_urdf(tmp_path, suffix):
     source = icosphere()
     path = tmp_path / f"ball{suffix}"
@@ -322,13 +322,34 @@ def test_user_mesh_inside_out_is_inverted_with_a_warning(tmp_path):
     assert model.mesh.volume == pytest.approx(source.volume, rel=1e-6)  # OBJ/PLY keep ~8 digits
 
 
-def test_user_mesh_that_stays_open_is_rejected(tmp_path):
+def test_an_open_shell_is_refused_not_closed(tmp_path):
+    """A hemispherical shell closed by its winding number would be a third made-up disc: refused."""
     source = icosphere()
     half = trimesh.Trimesh(source.vertices, source.faces[source.triangles_center[:, 2] > 0], process=False)
     path = tmp_path / "cup.obj"
     half.export(path)
-    with pytest.raises(ValueError, match=r"cup\.obj.*not watertight"):
+    with pytest.raises(ValueError, match=r"cup\.obj: the surface is open.*3\d % of the surface would span "
+                                         r"openings.*open shell.*thickness"):
         objects.load(path, cache_dir=tmp_path)
+
+
+def test_a_scan_with_a_large_hole_is_closed_with_a_warning_and_cached(tmp_path, monkeypatch):
+    """A sphere with a 20 deg cap cut away (more than trimesh's hole filling closes) loads closed; a
+    second load reads the closed mesh back from the cache instead of closing it again."""
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=0.02)
+    cut = sphere.triangles_center[:, 2] > 0.02 * np.cos(np.radians(20.0))
+    path = tmp_path / "scan.ply"
+    trimesh.Trimesh(sphere.vertices, sphere.faces[~cut], process=False).export(path)
+    with pytest.warns(UserWarning, match=r"scan\.ply: repaired mesh: the surface is open.*generalized winding "
+                                         r"number.*[1-4]\.\d % of the surface spans holes"):
+        model = objects.load(path, cache_dir=tmp_path / "cache")
+    assert model.mesh.is_watertight and model.mesh.body_count == 1 and model.mesh.volume > 0
+    np.testing.assert_allclose(model.extent_m[:2], 0.04, atol=5e-4)
+    monkeypatch.setattr("objects.loading.close_surface", lambda mesh: pytest.fail("closed again"))
+    with pytest.warns(UserWarning, match="spans holes"):
+        again = objects.load(path, cache_dir=tmp_path / "cache")
+    np.testing.assert_array_equal(again.mesh.vertices, model.mesh.vertices)
+    np.testing.assert_array_equal(again.mesh.faces, model.mesh.faces)
 
 
 def test_bad_names_and_files_get_clear_errors(tmp_path):
