@@ -71,9 +71,14 @@ def _outward_parts(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     outward as well, so it is filled."""
     merged = mesh.copy()
     merged.merge_vertices()
-    parts = merged.split(only_watertight=False)
+    # Parts by shared vertices, not shared edges: a mesh of quads joined only at their corners is
+    # one part, not a thousand two-triangle patches each turned its own way.
+    labels = trimesh.graph.connected_component_labels(merged.edges_unique, node_count=len(merged.vertices))
+    face_labels = labels[merged.faces[:, 0]]
+    parts = [merged.submesh([np.flatnonzero(face_labels == label)], append=True) for label in np.unique(face_labels)]
     for part in parts:
-        trimesh.repair.fix_winding(part)
+        if not part.is_winding_consistent:  # trimesh's fix can flip patches of a consistent open part
+            trimesh.repair.fix_winding(part)
         corners = part.triangles - part.triangles.reshape(-1, 3).mean(axis=0)
         signed_volume = np.einsum("ij,ij->i", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])).sum()
         if signed_volume < 0:
