@@ -6,7 +6,9 @@ outward normals), repaired where trimesh can do it (with a warning that says wha
 overlapping or touching parts merged into their outer surface (boolean union, with a warning); a
 surface that stays open (a scan with holes, open parts) is closed by its winding number
 (:mod:`objects.closing`, with a warning that says how much of it spans holes; refused when that is
-more than :data:`MAX_SPANNED_FRACTION`, an open shell rather than a solid). The result is written with a URDF into a cache folder so PyBullet can load it. A generated object
+more than :data:`MAX_SPANNED_FRACTION`, an open shell rather than a solid), and its origin moved to
+the centre of its bounding box (with a warning) when it lies elsewhere, as it does for every registry
+and generated object. The result is written with a URDF into a cache folder so PyBullet can load it. A generated object
 (``generated:mug/3``, :mod:`objects.generated`) is rebuilt from its name and written to the same cache.
 """
 from __future__ import annotations
@@ -40,6 +42,8 @@ MERGE_TOLERANCE_M = 1e-6
 #: spans openings: it was a shell (a bowl modelled without thickness), not a solid with holes.
 MAX_SPANNED_FRACTION = 0.1
 USER_RGBA = (0.75, 0.75, 0.75, 1.0)
+#: A user mesh whose bounding-box centre lies farther than this from its origin is moved to put it there.
+CENTRING_TOLERANCE_M = 0.001
 #: Beside a closed mesh in the cache: what closing it did (read back instead of closing it again).
 CLOSED_NOTE = "closed.json"
 CLOSED_SUFFIX = ".closed.obj"
@@ -417,6 +421,23 @@ def _cached_closing(note_path: pathlib.Path, closed_path: pathlib.Path) -> tuple
     return mesh, [note["note"]]
 
 
+def _centred(path: pathlib.Path, mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """``mesh`` with the centre of its bounding box at the origin (a warning gives the shift), unless
+    it lies within :data:`CENTRING_TOLERANCE_M` already. The stand turns an object about its origin and
+    the arm's reach is mapped around it; a file whose origin is a CAD part's corner or a scanner's
+    would otherwise stand centimetres off the stand (a wrist wedged on a part 16 cm off)."""
+    centre = mesh.bounds.mean(axis=0)
+    if np.linalg.norm(centre) <= CENTRING_TOLERANCE_M:
+        return mesh
+    mesh.apply_translation(-centre)
+    x, y, z = centre * 1e3
+    warnings.warn(f"{path}: the centre of its bounding box lies {np.linalg.norm(centre) * 1e3:.0f} mm from its "
+                  "origin; moved the origin there, where the stand turns it (as for every registry and "
+                  f"generated object): contacts and reconstructions are in that frame, a point of the file "
+                  f"is one of theirs + ({x:.1f}, {y:.1f}, {z:.1f}) mm", stacklevel=1)
+    return mesh
+
+
 def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path) -> ObjectModel:
     if not (np.isfinite(scale) and scale > 0):
         raise ValueError(f"scale must be a positive finite number, got {scale}")
@@ -439,6 +460,7 @@ def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path) -> Obj
         # Attributed here, not to the caller: Python's default filter then shows it once per
         # process, where a command checks the file and then loads it again into the simulation.
         warnings.warn(f"{path}: repaired mesh: {'; '.join(repairs)}", stacklevel=1)
+    mesh = _centred(path, mesh)
 
     _write_if_changed(mesh_path, obj_text(mesh, comment))
     _write_if_changed(urdf_path, urdf_text(name, mesh_path.name, USER_RGBA))

@@ -352,6 +352,29 @@ def test_a_scan_with_a_large_hole_is_closed_with_a_warning_and_cached(tmp_path, 
     np.testing.assert_array_equal(again.mesh.faces, model.mesh.faces)
 
 
+def test_a_mesh_far_from_its_origin_is_centred_with_a_warning_and_a_near_one_is_kept(tmp_path):
+    """The stand turns an object about its origin: a CAD part drawn from its corner is moved so that
+    the centre of its bounding box is the origin, and the warning gives the shift back to the file."""
+    box = trimesh.creation.box(extents=(0.12, 0.08, 0.06))
+    box.apply_translation([0.1, -0.05, 0.2])
+    box.export(tmp_path / "corner.stl")
+    with pytest.warns(UserWarning, match=r"corner\.stl: the centre of its bounding box lies 229 mm from its "
+                                         r"origin.*\+ \(100\.0, -50\.0, 200\.0\) mm"):
+        model = objects.load(tmp_path / "corner.stl", cache_dir=tmp_path / "cache")
+    np.testing.assert_allclose(model.mesh.bounds, [[-0.06, -0.04, -0.03], [0.06, 0.04, 0.03]], atol=1e-9)
+    np.testing.assert_allclose(model.centre_m, 0.0, atol=1e-9)
+    written = trimesh.load(model.mesh_path, force="mesh")  # what the simulator loads
+    np.testing.assert_allclose(written.bounds, model.mesh.bounds, atol=1e-8)
+
+    near = trimesh.creation.box(extents=(0.12, 0.08, 0.06))
+    near.apply_translation([0.0005, 0.0, -0.0005])
+    near.export(tmp_path / "near.stl")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        kept = objects.load(tmp_path / "near.stl", cache_dir=tmp_path / "cache")
+    np.testing.assert_allclose(kept.centre_m, [0.0005, 0.0, -0.0005], atol=1e-9)
+
+
 def test_bad_names_and_files_get_clear_errors(tmp_path):
     with pytest.raises(ValueError, match="unknown object 'bananna'.*box, sphere"):
         objects.load("bananna")
