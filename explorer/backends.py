@@ -110,7 +110,8 @@ def _reference(config: BackendConfig):
         if not path.exists():
             raise FileNotFoundError(f"object.reference_mesh: {path} does not exist")
         try:
-            return objects.load(path, scale=objects.units_scale(config.object.units)).mesh
+            # registered to the real object's frame: never moved to its centre
+            return objects.load(path, scale=objects.units_scale(config.object.units), keep_frame=True).mesh
         except ValueError as error:
             raise ValueError(f"object.reference_mesh: {_config_units_hint(error)}") from error
     if config.robot.backend == "sim":

@@ -101,7 +101,7 @@ def in_metres(name_or_path: str | os.PathLike, units: str = "m", *,
 
 
 def load(name_or_path: str | os.PathLike, *, scale: float | None = None,
-         cache_dir: str | os.PathLike | None = None) -> ObjectModel:
+         cache_dir: str | os.PathLike | None = None, keep_frame: bool = False) -> ObjectModel:
     """The object called ``name_or_path`` in the registry, a generated object, or the mesh in a file.
 
     Parameters
@@ -116,6 +116,10 @@ def load(name_or_path: str | os.PathLike, *, scale: float | None = None,
         Folder for the URDF (and cleaned OBJ) of a mesh file or generated object; default
         :func:`default_cache_dir`. The sub-folder is named after the file's content and ``scale``
         (or the generated name), so it is deterministic.
+    keep_frame : bool
+        Keep a mesh file's own frame even when its bounding-box centre is far from its origin: a
+        reference mesh registered to a real object's frame. False (an object to simulate): moved
+        to that centre, with a warning (:func:`_centred`).
 
     Returns
     -------
@@ -127,7 +131,8 @@ def load(name_or_path: str | os.PathLike, *, scale: float | None = None,
     ValueError
         Unknown name (the message lists the valid ones), malformed generated name or unknown family
         (listed), unsupported suffix, unreadable or empty file, implausible size (the message names
-        the likely unit and the ``--units`` flag), or a mesh that is not watertight after repair.
+        the likely unit and the ``--units`` flag), or an open surface that cannot be closed or is a
+        shell (:func:`_closed`).
     FileNotFoundError
         A path that does not exist.
     """
@@ -148,7 +153,7 @@ def load(name_or_path: str | os.PathLike, *, scale: float | None = None,
     if not path.is_file():
         raise FileNotFoundError(f"mesh file {path} does not exist")
     return _load_file(path, 1.0 if scale is None else scale,
-                      pathlib.Path(cache_dir) if cache_dir is not None else default_cache_dir())
+                      pathlib.Path(cache_dir) if cache_dir is not None else default_cache_dir(), keep_frame)
 
 
 def _model(name: str, description: str, mesh: trimesh.Trimesh, mesh_path: pathlib.Path,
@@ -333,8 +338,9 @@ def _merge_parts(path: pathlib.Path, parts: list[trimesh.Trimesh]) -> tuple[trim
     return outer, [what]
 
 
-def _cache_folder(path: pathlib.Path, scale: float, cache_dir: pathlib.Path) -> pathlib.Path:
-    digest = hashlib.sha256(path.read_bytes() + f"|scale={scale!r}".encode()).hexdigest()[:16]
+def _cache_folder(path: pathlib.Path, scale: float, cache_dir: pathlib.Path, keep_frame: bool) -> pathlib.Path:
+    key = f"|scale={scale!r}" + ("|file frame" if keep_frame else "")
+    digest = hashlib.sha256(path.read_bytes() + key.encode()).hexdigest()[:16]
     return cache_dir / f"{path.stem}-{digest}"
 
 
@@ -438,7 +444,7 @@ def _centred(path: pathlib.Path, mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     return mesh
 
 
-def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path) -> ObjectModel:
+def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path, keep_frame: bool) -> ObjectModel:
     if not (np.isfinite(scale) and scale > 0):
         raise ValueError(f"scale must be a positive finite number, got {scale}")
     mesh = _read_mesh(path)
@@ -446,7 +452,7 @@ def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path) -> Obj
         mesh.apply_scale(scale)
     _check_size(path, mesh, scale)
     name = path.stem
-    folder = _cache_folder(path, scale, cache_dir)
+    folder = _cache_folder(path, scale, cache_dir, keep_frame)
     folder.mkdir(parents=True, exist_ok=True)
     mesh_path, urdf_path = folder / f"{name}.obj", folder / f"{name}.urdf"
     comment = f"{name}: from {path} (scale {scale:g}), checked by objects.load"
@@ -460,7 +466,8 @@ def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path) -> Obj
         # Attributed here, not to the caller: Python's default filter then shows it once per
         # process, where a command checks the file and then loads it again into the simulation.
         warnings.warn(f"{path}: repaired mesh: {'; '.join(repairs)}", stacklevel=1)
-    mesh = _centred(path, mesh)
+    if not keep_frame:
+        mesh = _centred(path, mesh)
 
     _write_if_changed(mesh_path, obj_text(mesh, comment))
     _write_if_changed(urdf_path, urdf_text(name, mesh_path.name, USER_RGBA))

@@ -306,6 +306,13 @@ def test_the_rig_configuration_gives_the_reference_mesh_unit(tmp_path):
     emulated = {"robot": {"backend": "emulated"}, "sensor": {"backend": "emulated"}}
     config = config_from_dict({**emulated, "object": {"reference_mesh": str(path), "units": "mm"}})
     np.testing.assert_allclose(_reference(config).extents, [0.12, 0.08, 0.06], atol=1e-9)
+    off_centre = tmp_path / "registered.stl"  # registered to the real object's frame: never moved
+    trimesh.creation.box(extents=(120.0, 80.0, 60.0)).apply_translation([0.0, 0.0, 30.0]).export(off_centre)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        reference = _reference(config_from_dict({**emulated, "object": {"reference_mesh": str(off_centre),
+                                                                         "units": "mm"}}))
+    np.testing.assert_allclose(reference.bounds, [[-0.06, -0.04, 0.0], [0.06, 0.04, 0.06]], atol=1e-9)
     config = config_from_dict({**emulated, "object": {"reference_mesh": str(path)}})
     with pytest.raises(ValueError, match=r"object\.reference_mesh: .*set object\.units = mm "):
         _reference(config)

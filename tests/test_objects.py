@@ -365,6 +365,11 @@ def test_a_mesh_far_from_its_origin_is_centred_with_a_warning_and_a_near_one_is_
     np.testing.assert_allclose(model.centre_m, 0.0, atol=1e-9)
     written = trimesh.load(model.mesh_path, force="mesh")  # what the simulator loads
     np.testing.assert_allclose(written.bounds, model.mesh.bounds, atol=1e-8)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        own_frame = objects.load(tmp_path / "corner.stl", cache_dir=tmp_path / "cache", keep_frame=True)
+    np.testing.assert_allclose(own_frame.centre_m, [0.1, -0.05, 0.2], atol=1e-9)
+    np.testing.assert_allclose(trimesh.load(own_frame.mesh_path, force="mesh").bounds, own_frame.mesh.bounds, atol=1e-8)
 
     near = trimesh.creation.box(extents=(0.12, 0.08, 0.06))
     near.apply_translation([0.0005, 0.0, -0.0005])
