@@ -110,8 +110,10 @@ def _reference(config: BackendConfig):
         if not path.exists():
             raise FileNotFoundError(f"object.reference_mesh: {path} does not exist")
         try:
-            # registered to the real object's frame: never moved to its centre
-            return objects.load(path, scale=objects.units_scale(config.object.units), keep_frame=True).mesh
+            # registered to a real object's frame: never moved to its centre (in simulation it is in the
+            # frame of the simulated object, which is)
+            return objects.load(path, scale=objects.units_scale(config.object.units),
+                                keep_frame=config.robot.backend != "sim").mesh
         except ValueError as error:
             raise ValueError(f"object.reference_mesh: {_config_units_hint(error)}") from error
     if config.robot.backend == "sim":
