@@ -47,6 +47,8 @@ CENTRING_TOLERANCE_M = 0.001
 #: Beside a closed mesh in the cache: what closing it did (read back instead of closing it again).
 CLOSED_NOTE = "closed.json"
 CLOSED_SUFFIX = ".closed.obj"
+#: How the repairs a re-read can still need begin (a note that parts stay apart is not one).
+_REPAIR_PREFIXES = ("merged ", "removed ", "filled ", "made ", "inverted ", "turned ")
 
 
 def default_cache_dir() -> pathlib.Path:
@@ -241,12 +243,13 @@ def _repair(path: pathlib.Path, mesh: trimesh.Trimesh, orient: bool = True) -> l
     if len(mesh.vertices) < n_vertices:
         repairs.append(f"merged {n_vertices - len(mesh.vertices)} vertices closer than "
                        f"{MERGE_TOLERANCE_M * 1e3:g} mm")
-    n_faces = len(mesh.faces)
-    mesh.update_faces(mesh.nondegenerate_faces())
-    mesh.update_faces(mesh.unique_faces())
-    mesh.remove_unreferenced_vertices()
-    if len(mesh.faces) < n_faces:
-        repairs.append(f"removed {n_faces - len(mesh.faces)} degenerate or duplicate faces")
+    keep = mesh.nondegenerate_faces() & mesh.unique_faces()
+    # A zero-area face of a closed surface (marching cubes makes them where the level set grazes a
+    # grid point) stays: dropping it opens a hole that filling closes with the same face.
+    if not keep.all() and not (mesh.is_watertight and not mesh.submesh([keep], append=True).is_watertight):
+        mesh.update_faces(keep)
+        mesh.remove_unreferenced_vertices()
+        repairs.append(f"removed {int(np.sum(~keep))} degenerate or duplicate faces")
     if not mesh.is_watertight:
         n_faces = len(mesh.faces)
         trimesh.repair.fill_holes(mesh)
@@ -444,6 +447,26 @@ def _centred(path: pathlib.Path, mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     return mesh
 
 
+def _settled(mesh_path: pathlib.Path, mesh: trimesh.Trimesh, comment: str) -> trimesh.Trimesh:
+    """``mesh`` written to ``mesh_path`` as OBJ and read back as a later load of that file reads it,
+    repaired until such a load has nothing left to repair (at most three rounds). Printed to 8
+    decimals and shifted to its centre, a closed level set's vertices a micrometre apart merge and
+    its slivers go: without this, each load of the cleaned copy (what ``--units`` hands on) repaired
+    it again, with a warning, into a slightly different mesh."""
+    for _ in range(3):
+        _write_if_changed(mesh_path, obj_text(mesh, comment))
+        reread = _read_mesh(mesh_path)
+        try:
+            repaired, repairs = _repaired(mesh_path, reread, 1.0)
+        except _OpenSurface:
+            return reread
+        if not any(repair.startswith(_REPAIR_PREFIXES) for repair in repairs):
+            return reread
+        mesh = repaired
+    _write_if_changed(mesh_path, obj_text(mesh, comment))
+    return mesh
+
+
 def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path, keep_frame: bool) -> ObjectModel:
     if not (np.isfinite(scale) and scale > 0):
         raise ValueError(f"scale must be a positive finite number, got {scale}")
@@ -468,8 +491,7 @@ def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path, keep_f
         warnings.warn(f"{path}: repaired mesh: {'; '.join(repairs)}", stacklevel=1)
     if not keep_frame:
         mesh = _centred(path, mesh)
-
-    _write_if_changed(mesh_path, obj_text(mesh, comment))
+    mesh = _settled(mesh_path, mesh, comment)
     _write_if_changed(urdf_path, urdf_text(name, mesh_path.name, USER_RGBA))
     description = f"user mesh {path.name} (scale {scale:g}), {' x '.join(f'{e * 1e3:.1f}' for e in mesh.extents)} mm"
     return _model(name, description, mesh, mesh_path, urdf_path)

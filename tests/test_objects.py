@@ -350,6 +350,11 @@ def test_a_scan_with_a_large_hole_is_closed_with_a_warning_and_cached(tmp_path, 
         again = objects.load(path, cache_dir=tmp_path / "cache")
     np.testing.assert_array_equal(again.mesh.vertices, model.mesh.vertices)
     np.testing.assert_array_equal(again.mesh.faces, model.mesh.faces)
+    with warnings.catch_warnings():  # the cleaned copy (what --units hands on) needs nothing more
+        warnings.simplefilter("error")
+        copy = objects.load(model.mesh_path, cache_dir=tmp_path / "cache")
+    np.testing.assert_allclose(copy.mesh.vertices, model.mesh.vertices, atol=1e-8)
+    np.testing.assert_array_equal(copy.mesh.faces, model.mesh.faces)
 
 
 def test_a_mesh_far_from_its_origin_is_centred_with_a_warning_and_a_near_one_is_kept(tmp_path):
