@@ -60,3 +60,19 @@ def test_contacts_of_the_wrong_shape_are_refused(pocketed):
     truth, _ = pocketed
     with pytest.raises(ValueError, match=r"shape \(n, 3\)"):
         recess_error(truth, truth, contacts_m=np.zeros((4, 2)))
+
+
+def test_the_hull_test_in_blocks_is_the_closed_form_cube_test():
+    """Any block size gives the closed-form answer (a 327,680-face sphere's facets against 5,000
+    samples at once asked for 12 GB)."""
+    from scipy.spatial import ConvexHull
+
+    from reconstruction.metrics import _inside_hull
+
+    cube = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    equations = ConvexHull(cube.vertices).equations
+    points = np.random.default_rng(0).uniform(-0.8, 0.8, (1001, 3))
+    expected = np.all(np.abs(points) < 0.5, axis=1)
+    assert 0.1 < expected.mean() < 0.5
+    for budget in (1, 7, len(equations) * 1000, 10**9):
+        np.testing.assert_array_equal(_inside_hull(points, equations, budget=budget), expected)
