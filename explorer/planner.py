@@ -363,6 +363,26 @@ class ApproachPlanner:
         return FreePathPlanner(spheres, self.prior, self.kin.lower_rad, self.kin.upper_rad,
                                FreePathConfig(clearance_m=self.config.free_move_clearance_m), self.obstacles)
 
+    def rest_clearance_m(self) -> float:
+        """Smallest gap (metres) between the arm waiting at ``rest_q`` (its spheres, shoulder to hand)
+        and the prior box over every stand pose; negative when the stand would turn the object into
+        the waiting arm (an object too large for the rig). Infinite without a sphere model."""
+        if self._free_paths is None:
+            self._free_paths = self._free_path_planner()
+        if self._free_paths is False:
+            return float("inf")
+        from explorer.free_path import box_signed_distance_m
+
+        spheres = self._free_paths.spheres
+        world = spheres.centres_m(self.rest_q[None])[0]
+        gaps = []
+        for pose in self.positioner.poses:
+            rotation, origin = self.positioner.object_to_world(pose)
+            centres = (world - origin) @ rotation  # object frame
+            gaps.append(np.min(box_signed_distance_m(centres, self.prior.centre_m, self.prior.half_extent_m)
+                               - spheres.radii_m))
+        return float(np.min(gaps))
+
     def prior_exit_m(self, target_m: np.ndarray, approach_dir: np.ndarray) -> float:
         """Distance (metres) from ``target_m`` along ``approach_dir`` (object frame) to where the line
         leaves the prior box; 0 when it has left it already (or never meets it)."""

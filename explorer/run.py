@@ -148,6 +148,7 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
     prior = rig.prior
     planner = ApproachPlanner(rig.kinematics, PadIK(rig.kinematics), rig.positioner, prior, settings.planner,
                               obstacles=rig.obstacles)
+    _check_fits_the_rig(planner, rig)
     gpis = GPIS(bounds=prior.bounds(), use_normals=settings.use_normals)
     configuration = dict(asdict(settings), detector=asdict(PressureDetectorConfig()),
                          settling=asdict(LOOP_SETTLING), pad=rig.pad.as_dict(),
@@ -213,6 +214,18 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
             warnings.warn(f"the run stopped ({type(error).__name__}) and its outputs could not all be "
                           f"written: {type(finish_error).__name__}: {finish_error}", RuntimeWarning)
     return RunResult(loop.records, gpis, metrics, out_dir)
+
+
+def _check_fits_the_rig(planner: ApproachPlanner, rig: Rig) -> None:
+    """ValueError, before anything is recorded, when the stand would turn the object's rough box
+    into the arm waiting at rest: every later move would end on the object (a 50 cm crate stopped
+    after its first contact with the wrist pressed against it)."""
+    clearance = planner.rest_clearance_m()
+    if clearance < 0:
+        size = " x ".join(f"{2e3 * h:.0f}" for h in rig.prior.half_extent_m)
+        raise ValueError(f"the object is too large for this rig: turned by the stand, its rough box ({size} mm, "
+                         f"the object and a margin) reaches {-clearance * 1e3:.0f} mm into the arm waiting at rest; "
+                         "explore a smaller object, or check the mesh's units (--units)")
 
 
 def _record_error(recorder: RunRecorder, rig: Rig, error: BaseException) -> None:

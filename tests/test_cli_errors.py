@@ -60,6 +60,22 @@ def test_explore_refuses_bad_arguments_before_anything_is_written(tmp_path, caps
     assert not (tmp_path / "run").exists()
 
 
+def test_explore_refuses_an_object_too_large_for_the_rig_before_anything_is_written(tmp_path, capsys, monkeypatch):
+    """A 50 cm crate turned by the stand would reach into the arm waiting at rest (it stopped after its
+    first contact with the wrist pressed on it); the hand-held range of the units check allows it."""
+    import trimesh
+
+    from scripts.explore import main
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    trimesh.creation.box(extents=(0.5, 0.3, 0.2)).export(tmp_path / "crate.stl")
+    status, err = run_main(main, ["--object", str(tmp_path / "crate.stl"), "--touches", "3",
+                                  "--out", str(tmp_path / "run")], capsys)
+    assert status == 2
+    assert "too large for this rig" in last_line(err) and "into the arm waiting at rest" in last_line(err)
+    assert not (tmp_path / "run").exists()
+
+
 def test_explore_refuses_an_out_that_is_a_file_or_under_one(tmp_path, capsys):
     from scripts.explore import main
 

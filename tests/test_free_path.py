@@ -234,3 +234,29 @@ def test_the_free_path_benchmark_refuses_a_bad_budget_with_one_line(capsys):
         main(["--touches", "1"])
     assert stop.value.code == 2
     assert "--touches must be >= 2" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("robot", ["armar3", "armar6"])
+def test_the_rest_clearance_is_the_free_path_clearance_at_rest_and_turns_negative_for_a_crate(robot):
+    """At one stand pose the rest clearance is the free-path planner's clearance of the rest pose (an
+    independent sum over the same spheres); a hand-sized box clears the waiting arm by centimetres,
+    a 50 cm crate's box reaches into it."""
+    import robots
+    from explorer.planner import ApproachPlanner
+    from explorer.positioner import FixedStand, SimulatedStand, turntable_poses
+    from robots.ik import PadIK
+    from robots.kinematics import ArmKinematics
+
+    kin = ArmKinematics(robots.load(robot))
+    centre = np.asarray(kin.spec.workspace_center_m)
+    small = ApproachPlanner(kin, PadIK(kin), FixedStand(centre), ObjectPrior(np.zeros(3), np.full(3, 0.05)))
+    at_rest = small._free_path_planner().clearance_m(small.rest_q[None], small.positioner.object_to_world())[0]
+    assert small.rest_clearance_m() == pytest.approx(at_rest, abs=1e-12)
+    assert small.rest_clearance_m() > 0.02
+
+    turning = SimulatedStand(lambda p, q: None, centre, turntable_poses())
+    crate = ApproachPlanner(kin, PadIK(kin), turning, ObjectPrior(np.zeros(3), np.array([0.285, 0.175, 0.12])))
+    assert crate.rest_clearance_m() < 0
+    assert crate.rest_clearance_m() <= min(
+        crate._free_path_planner().clearance_m(crate.rest_q[None], turning.object_to_world(pose))[0]
+        for pose in turning.poses) + 1e-12
