@@ -15,8 +15,9 @@ sorted into exclusive classes, in this order:
 4. ``reachable_untouched`` - reachable, but no contact within the coverage radius;
 5. ``touched`` - reachable and within the coverage radius of a contact.
 
-The fingertip and hand are tested against a distance field of the true surface (voxels of
-``pitch_m``), so a class boundary is good to about a voxel.
+The fingertip and hand are tested against exact distances to the true surface where a voxel field
+of it cannot tell (the field alone, before 2026-11-28, put 10 % of generated:mug/0 on the wrong side
+of the pad's clearance).
 """
 from __future__ import annotations
 
@@ -136,33 +137,63 @@ def _cylinder(base: np.ndarray, axis: np.ndarray, radius: float, start: float, e
 
 
 class SurfaceDistance:
-    """Distance (m) from any point to a mesh's surface, from a voxel grid of the surface.
+    """Distance (m) from any point to a mesh's surface: a voxel field of the surface for most points,
+    exact distances (libigl's AABB tree) where the field cannot tell.
 
     Parameters
     ----------
     mesh : trimesh.Trimesh
         Object frame, metres.
     pitch_m : float
-        Voxel size; distances are good to about ``pitch_m``.
+        Voxel size of the field; :meth:`field` is within :attr:`bound_m` of the exact distance.
     """
 
     def __init__(self, mesh, pitch_m: float = 0.0015):
+        import igl
         from scipy import ndimage
 
         voxels = mesh.voxelized(pitch_m)
         occupied = np.pad(np.asarray(voxels.matrix, bool), 2)
         self.pitch_m = pitch_m
+        #: The field's largest error: a surface voxel's centre is within half a voxel diagonal of the
+        #: surface, and a query snaps to the nearest voxel centre, another half diagonal.
+        self.bound_m = pitch_m * np.sqrt(3.0)
         self.origin_m = np.asarray(voxels.transform[:3, 3], float) - 2 * pitch_m
         self.distance_m = ndimage.distance_transform_edt(~occupied) * pitch_m
+        self._vertices = np.ascontiguousarray(mesh.vertices, dtype=np.float64)
+        self._faces = np.ascontiguousarray(mesh.faces, dtype=np.int64)
+        self._tree = igl.AABB()
+        self._tree.init(self._vertices, self._faces)
 
-    def __call__(self, points: np.ndarray) -> np.ndarray:
-        """(n,) distances of (n, 3) points; points outside the grid are far (inf)."""
+    def field(self, points: np.ndarray) -> np.ndarray:
+        """(n,) distances of (n, 3) points from the voxel field; points outside the grid (more than
+        two voxels beyond the surface's bounds) are far (inf)."""
         index = np.rint((np.asarray(points, float) - self.origin_m) / self.pitch_m).astype(int)
         inside = np.all((index >= 0) & (index < np.array(self.distance_m.shape)), axis=1)
         out = np.full(len(index), np.inf)
         i = index[inside]
         out[inside] = self.distance_m[i[:, 0], i[:, 1], i[:, 2]]
         return out
+
+    def exact(self, points: np.ndarray) -> np.ndarray:
+        """(n,) exact distances of (n, 3) points."""
+        squared, _, _ = self._tree.squared_distance(self._vertices, self._faces,
+                                                    np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3))
+        return np.sqrt(squared)
+
+    def any_within(self, points: np.ndarray, clearance_m: float) -> bool:
+        """Whether any of the (n, 3) points is closer than ``clearance_m`` to the surface, exactly:
+        the field settles every point farther than :attr:`bound_m` from the threshold, the AABB tree
+        the rest."""
+        field = self.field(points)
+        if np.any(field + self.bound_m < clearance_m):
+            return True
+        unsure = np.abs(field - clearance_m) <= self.bound_m
+        if clearance_m > 1.6 * self.pitch_m:
+            # Off the grid is 2.5 voxels beyond an outermost surface voxel, whose centre is within half a
+            # diagonal of the surface: more than 1.6 voxels away, certain only for a smaller clearance.
+            unsure |= ~np.isfinite(field)
+        return bool(np.any(unsure) and np.min(self.exact(np.asarray(points)[unsure])) < clearance_m)
 
 
 @dataclass(frozen=True)
@@ -223,10 +254,10 @@ def classify_fit(mesh, points: np.ndarray, normals: np.ndarray, tool: ToolEnvelo
     for i, (p, n) in enumerate(zip(points, normals)):
         ok = []
         for a in tool.approach_directions(n):
-            if np.min(distance(tool.fingertip_points(p, n, a))) < tool.clearance_m:
+            if distance.any_within(tool.fingertip_points(p, n, a), tool.clearance_m):
                 continue
             fits[i] = True
-            if np.min(distance(tool.hand_points(p, n, a))) >= tool.clearance_m:
+            if not distance.any_within(tool.hand_points(p, n, a), tool.clearance_m):
                 ok.append(a)
         clear.append(np.array(ok).reshape(-1, 3))
     return fits, clear

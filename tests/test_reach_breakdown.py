@@ -66,17 +66,23 @@ def test_touched_is_the_spherical_cap_within_the_radius_of_a_contact():
     assert b.reachable_coverage == pytest.approx(b.touched)
 
 
-def test_surface_distance_is_good_to_a_voxel():
-    sphere = trimesh.creation.icosphere(subdivisions=5, radius=0.03)
-    distance = SurfaceDistance(sphere, pitch_m=0.0015)
-    rng = np.random.default_rng(0)
-    points = rng.uniform(-0.045, 0.045, (500, 3))
-    exact = np.abs(np.linalg.norm(points, axis=1) - 0.03)
-    d = distance(points)
-    inside = np.isfinite(d)
-    assert inside.sum() > 100
-    np.testing.assert_allclose(d[inside], exact[inside], atol=0.0015 * 1.5)
-    assert np.all(exact[~inside] > 2 * 0.0015)   # beyond the grid: farther than the clearance
+def test_surface_distance_is_the_closed_form_distance_to_a_box_and_the_field_within_its_bound():
+    half = np.array([0.04, 0.03, 0.02])
+    box = trimesh.creation.box(extents=2 * half)
+    distance = SurfaceDistance(box)
+    points = np.random.default_rng(0).uniform(-0.06, 0.06, (2000, 3))
+    q = np.abs(points) - half
+    exact = np.abs(np.linalg.norm(np.maximum(q, 0.0), axis=1) + np.minimum(q.max(axis=1), 0.0))
+    np.testing.assert_allclose(distance.exact(points), exact, atol=1e-12)
+    field = distance.field(points)
+    inside = np.isfinite(field)
+    assert inside.sum() > 200
+    assert np.all(np.abs(field[inside] - exact[inside]) <= distance.bound_m)
+    assert np.all(exact[~inside] > 1.6 * distance.pitch_m)  # what any_within relies on
+    # any_within is the exact answer, point cloud by point cloud, near the threshold and away from it
+    for clearance in (0.0012, 0.003, 0.01):
+        for cloud in np.array_split(np.arange(len(points)), 200):
+            assert distance.any_within(points[cloud], clearance) == bool(np.min(exact[cloud]) < clearance)
 
 
 def test_approach_directions_are_head_on_then_tilted():
