@@ -13,6 +13,7 @@ and generated object. The result is written with a URDF into a cache folder so P
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -93,7 +94,9 @@ def in_metres(name_or_path: str | os.PathLike, units: str = "m", *,
     """
     factor = units_scale(units)
     if is_mesh_file_name(name_or_path):
-        model = load(name_or_path, scale=factor, cache_dir=cache_dir)  # checks it now, not mid-run
+        # Checked now, not mid-run. The copy in metres keeps the file's frame: each later load of it
+        # centres it again, so its runs record the same shift as the file's (ObjectModel.file_shift_m).
+        model = load(name_or_path, scale=factor, cache_dir=cache_dir, keep_frame=factor != 1.0)
         return os.path.abspath(name_or_path) if factor == 1.0 else str(model.mesh_path)
     if factor != 1.0:
         raise ValueError(f"--units {units} applies to mesh files only, not to {str(name_or_path)!r}")
@@ -430,21 +433,22 @@ def _cached_closing(note_path: pathlib.Path, closed_path: pathlib.Path) -> tuple
     return mesh, [note["note"]]
 
 
-def _centred(path: pathlib.Path, mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+def _centred(path: pathlib.Path, mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, np.ndarray]:
     """``mesh`` with the centre of its bounding box at the origin (a warning gives the shift), unless
-    it lies within :data:`CENTRING_TOLERANCE_M` already. The stand turns an object about its origin and
+    it lies within :data:`CENTRING_TOLERANCE_M` already, and the (3,) shift (the old origin's
+    offset from the new, metres; zero when kept). The stand turns an object about its origin and
     the arm's reach is mapped around it; a file whose origin is a CAD part's corner or a scanner's
     would otherwise stand centimetres off the stand (a wrist wedged on a part 16 cm off)."""
     centre = mesh.bounds.mean(axis=0)
     if np.linalg.norm(centre) <= CENTRING_TOLERANCE_M:
-        return mesh
+        return mesh, np.zeros(3)
     mesh.apply_translation(-centre)
     x, y, z = centre * 1e3
     warnings.warn(f"{path}: the centre of its bounding box lies {np.linalg.norm(centre) * 1e3:.0f} mm from its "
                   "origin; moved the origin there, where the stand turns it (as for every registry and "
                   f"generated object): contacts and reconstructions are in that frame, a point of the file "
                   f"is one of theirs + ({x:.1f}, {y:.1f}, {z:.1f}) mm", stacklevel=1)
-    return mesh
+    return mesh, centre
 
 
 def _settled(mesh_path: pathlib.Path, mesh: trimesh.Trimesh, comment: str) -> trimesh.Trimesh:
@@ -489,9 +493,10 @@ def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path, keep_f
         # Attributed here, not to the caller: Python's default filter then shows it once per
         # process, where a command checks the file and then loads it again into the simulation.
         warnings.warn(f"{path}: repaired mesh: {'; '.join(repairs)}", stacklevel=1)
+    shift = np.zeros(3)
     if not keep_frame:
-        mesh = _centred(path, mesh)
+        mesh, shift = _centred(path, mesh)
     mesh = _settled(mesh_path, mesh, comment)
     _write_if_changed(urdf_path, urdf_text(name, mesh_path.name, USER_RGBA))
     description = f"user mesh {path.name} (scale {scale:g}), {' x '.join(f'{e * 1e3:.1f}' for e in mesh.extents)} mm"
-    return _model(name, description, mesh, mesh_path, urdf_path)
+    return dataclasses.replace(_model(name, description, mesh, mesh_path, urdf_path), file_shift_m=shift)

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import pathlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import trimesh
@@ -34,6 +34,11 @@ class ObjectModel:
         Centre of the mesh's axis-aligned bounding box, object frame, metres.
     extent_m : (3,) float
         Size of that bounding box along x, y, z, metres.
+    file_shift_m : (3,) float
+        Where the object frame's origin lies in the mesh file's own frame (metres, after scaling): a
+        point of the file is a point of the object frame plus this. Zero for registry and generated
+        objects and for a file whose origin was kept (``objects.load`` centres a user mesh more than
+        1 mm off).
     """
 
     name: str
@@ -44,3 +49,4 @@ class ObjectModel:
     sharp_edges: np.ndarray
     centre_m: np.ndarray
     extent_m: np.ndarray
+    file_shift_m: np.ndarray = field(default_factory=lambda: np.zeros(3))

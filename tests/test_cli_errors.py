@@ -76,6 +76,26 @@ def test_explore_refuses_an_object_too_large_for_the_rig_before_anything_is_writ
     assert not (tmp_path / "run").exists()
 
 
+def test_a_run_records_the_shift_of_a_user_mesh_it_centred(tmp_path, capsys, monkeypatch):
+    """metrics.json and the session name the shift, so the reconstruction can be put back in the file's frame."""
+    import trimesh
+
+    from scripts.explore import main
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    part = trimesh.creation.box(extents=(0.08, 0.06, 0.04))
+    part.apply_translation([0.04, 0.03, 0.02])  # drawn from its corner
+    part.export(tmp_path / "part.stl")
+    with pytest.warns(UserWarning, match="moved the origin there"):
+        status, _ = run_main(main, ["--object", str(tmp_path / "part.stl"), "--touches", "1",
+                                    "--out", str(tmp_path / "run")], capsys)
+    assert status == 0
+    metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    metadata = json.loads((tmp_path / "run" / "session" / "metadata.json").read_text())
+    assert metrics["object_file_shift_mm"] == pytest.approx([40.0, 30.0, 20.0], abs=1e-6)
+    assert metadata["object_file_shift_mm"] == metrics["object_file_shift_mm"]
+
+
 def test_explore_refuses_an_out_that_is_a_file_or_under_one(tmp_path, capsys):
     from scripts.explore import main
 

@@ -368,12 +368,14 @@ def test_a_mesh_far_from_its_origin_is_centred_with_a_warning_and_a_near_one_is_
         model = objects.load(tmp_path / "corner.stl", cache_dir=tmp_path / "cache")
     np.testing.assert_allclose(model.mesh.bounds, [[-0.06, -0.04, -0.03], [0.06, 0.04, 0.03]], atol=1e-9)
     np.testing.assert_allclose(model.centre_m, 0.0, atol=1e-9)
+    np.testing.assert_allclose(model.file_shift_m, [0.1, -0.05, 0.2], atol=1e-12)
     written = trimesh.load(model.mesh_path, force="mesh")  # what the simulator loads
     np.testing.assert_allclose(written.bounds, model.mesh.bounds, atol=1e-8)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         own_frame = objects.load(tmp_path / "corner.stl", cache_dir=tmp_path / "cache", keep_frame=True)
     np.testing.assert_allclose(own_frame.centre_m, [0.1, -0.05, 0.2], atol=1e-9)
+    np.testing.assert_array_equal(own_frame.file_shift_m, 0.0)
     np.testing.assert_allclose(trimesh.load(own_frame.mesh_path, force="mesh").bounds, own_frame.mesh.bounds, atol=1e-8)
 
     near = trimesh.creation.box(extents=(0.12, 0.08, 0.06))
@@ -383,6 +385,15 @@ def test_a_mesh_far_from_its_origin_is_centred_with_a_warning_and_a_near_one_is_
         warnings.simplefilter("error")
         kept = objects.load(tmp_path / "near.stl", cache_dir=tmp_path / "cache")
     np.testing.assert_allclose(kept.centre_m, [0.0005, 0.0, -0.0005], atol=1e-9)
+    np.testing.assert_array_equal(kept.file_shift_m, 0.0)
+
+    in_mm = trimesh.creation.box(extents=(120.0, 80.0, 60.0))
+    in_mm.apply_translation([100.0, -50.0, 200.0])
+    in_mm.export(tmp_path / "corner_mm.stl")
+    copy = objects.in_metres(tmp_path / "corner_mm.stl", "mm", cache_dir=tmp_path / "cache")
+    with pytest.warns(UserWarning, match=r"\+ \(100\.0, -50\.0, 200\.0\) mm"):  # the copy is centred as the file
+        np.testing.assert_allclose(objects.load(copy, cache_dir=tmp_path / "cache").file_shift_m,
+                                   [0.1, -0.05, 0.2], atol=1e-9)
 
 
 def test_bad_names_and_files_get_clear_errors(tmp_path):
