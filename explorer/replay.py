@@ -338,7 +338,12 @@ class SessionReplay:
         object_name = self.metadata.get("object")
         if isinstance(object_name, str):
             try:
-                self.truth = objects.load(object_name).mesh
+                model = objects.load(object_name)
+                if np.any(model.file_shift_m) and "object_file_shift_mm" not in self.metadata:
+                    # Recorded before objects.load centred user meshes (2026-11-28): the run's object
+                    # frame was the file's own.
+                    model = objects.load(object_name, keep_frame=True)
+                self.truth = model.mesh
             except (ValueError, FileNotFoundError) as error:
                 self.truth_note = (f"object {object_name!r} not loaded ({error}): no errors against the truth; "
                                    "a mesh file named relative to where the run was made loads from there")
@@ -576,6 +581,7 @@ class SessionReplay:
         recorded = [e.fields.get("result") for e in self.events if e.fields.get("result") in PRESSED_RESULTS]
         return dict(
             source_session=str(self.directory), object=self.metadata.get("object"),
+            **{key: self.metadata[key] for key in ("object_file_shift_mm",) if key in self.metadata},
             robot=self.metadata.get("robot"), replay=dict(
                 asdict(settings), start_threshold_pa=detector_config.start_threshold_pa,
                 end_threshold_pa=detector_config.end_threshold_pa, use_normals=use_normals),

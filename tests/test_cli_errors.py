@@ -78,6 +78,7 @@ def test_explore_refuses_an_object_too_large_for_the_rig_before_anything_is_writ
 
 def test_a_run_records_the_shift_of_a_user_mesh_it_centred(tmp_path, capsys, monkeypatch):
     """metrics.json and the session name the shift, so the reconstruction can be put back in the file's frame."""
+    import numpy as np
     import trimesh
 
     from scripts.explore import main
@@ -92,8 +93,17 @@ def test_a_run_records_the_shift_of_a_user_mesh_it_centred(tmp_path, capsys, mon
     assert status == 0
     metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
     metadata = json.loads((tmp_path / "run" / "session" / "metadata.json").read_text())
-    assert metrics["object_file_shift_mm"] == pytest.approx([40.0, 30.0, 20.0], abs=1e-6)
+    np.testing.assert_allclose(metrics["object_file_shift_mm"], [40.0, 30.0, 20.0], atol=1e-6)
     assert metadata["object_file_shift_mm"] == metrics["object_file_shift_mm"]
+
+    from explorer.replay import SessionReplay
+
+    session = tmp_path / "run" / "session"
+    np.testing.assert_allclose(SessionReplay(session).truth.bounds, [[-0.04, -0.03, -0.02], [0.04, 0.03, 0.02]],
+                               atol=1e-9)
+    del metadata["object_file_shift_mm"]  # as a session recorded before meshes were centred: the file's frame
+    (session / "metadata.json").write_text(json.dumps(metadata))
+    np.testing.assert_allclose(SessionReplay(session).truth.bounds, [[0.0, 0.0, 0.0], [0.08, 0.06, 0.04]], atol=1e-9)
 
 
 def test_explore_refuses_an_out_that_is_a_file_or_under_one(tmp_path, capsys):
