@@ -408,8 +408,8 @@ def _closed(path: pathlib.Path, mesh: trimesh.Trimesh, why_open: str, note_path:
             f"{closed.spacing_m * 1e3:.2g} mm (marching cubes; {faces}): {spanned:.1f} % of the surface spans "
             f"holes, sharp edges are rounded by up to ~{closed.spacing_m * 500:.2g} mm{specks}; check "
             f"{mesh_path} or close the file in a mesh editor")
-    # Read back from the file the simulator loads, so that a run is the same whether this process
-    # closed the mesh or found it closed in the cache.
+    # Read back from the cache file, so that a run is the same whether this process closed the mesh
+    # or found it closed there.
     _write_if_changed(closed_path, obj_text(closed.mesh, f"{path.name} closed by objects.closing"))
     _write_if_changed(note_path, json.dumps({"closing_version": CLOSING_VERSION, "note": note}))
     read_back = _cached_closing(note_path, closed_path)
