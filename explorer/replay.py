@@ -338,12 +338,10 @@ class SessionReplay:
         object_name = self.metadata.get("object")
         if isinstance(object_name, str):
             try:
-                model = objects.load(object_name)
-                if np.any(model.file_shift_m) and "object_file_shift_mm" not in self.metadata:
-                    # Recorded before objects.load centred user meshes (2026-11-28): the run's object
-                    # frame was the file's own.
-                    model = objects.load(object_name, keep_frame=True)
-                self.truth = model.mesh
+                # A run that moved a mesh's origin recorded the shift; one that did not (no shift, or
+                # recorded before objects.load centred user meshes, 2026-11-28) ran in the file's frame.
+                self.truth = objects.load(object_name,
+                                          keep_frame="object_file_shift_mm" not in self.metadata).mesh
             except (ValueError, FileNotFoundError) as error:
                 self.truth_note = (f"object {object_name!r} not loaded ({error}): no errors against the truth; "
                                    "a mesh file named relative to where the run was made loads from there")

@@ -78,6 +78,8 @@ def test_explore_refuses_an_object_too_large_for_the_rig_before_anything_is_writ
 
 def test_a_run_records_the_shift_of_a_user_mesh_it_centred(tmp_path, capsys, monkeypatch):
     """metrics.json and the session name the shift, so the reconstruction can be put back in the file's frame."""
+    import warnings
+
     import numpy as np
     import trimesh
 
@@ -99,11 +101,16 @@ def test_a_run_records_the_shift_of_a_user_mesh_it_centred(tmp_path, capsys, mon
     from explorer.replay import SessionReplay
 
     session = tmp_path / "run" / "session"
-    np.testing.assert_allclose(SessionReplay(session).truth.bounds, [[-0.04, -0.03, -0.02], [0.04, 0.03, 0.02]],
+    with pytest.warns(UserWarning, match="moved the origin there"):  # the replay loads the file as the run did
+        replayed = SessionReplay(session)
+    np.testing.assert_allclose(replayed.truth.bounds, [[-0.04, -0.03, -0.02], [0.04, 0.03, 0.02]],
                                atol=1e-9)
     del metadata["object_file_shift_mm"]  # as a session recorded before meshes were centred: the file's frame
     (session / "metadata.json").write_text(json.dumps(metadata))
-    np.testing.assert_allclose(SessionReplay(session).truth.bounds, [[0.0, 0.0, 0.0], [0.08, 0.06, 0.04]], atol=1e-9)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # kept in its frame: nothing moved, nothing to warn about
+        replayed = SessionReplay(session)
+    np.testing.assert_allclose(replayed.truth.bounds, [[0.0, 0.0, 0.0], [0.08, 0.06, 0.04]], atol=1e-9)
 
 
 def test_explore_refuses_an_out_that_is_a_file_or_under_one(tmp_path, capsys):
@@ -379,6 +386,32 @@ def test_explore_refuses_a_calibration_of_another_arm_or_none_at_all(tmp_path, c
     assert status == 2 and "--calibration: calibration file not found" in last_line(err)
     assert not (tmp_path / "run").exists()
 
+
+
+def test_the_run_reading_scripts_load_the_object_in_the_frame_the_run_explored_it_in(tmp_path, monkeypatch):
+    import json
+    import warnings
+
+    import numpy as np
+    import trimesh
+
+    from scripts._cli import recorded_object
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    part = trimesh.creation.box(extents=(0.08, 0.06, 0.04))
+    part.apply_translation([0.04, 0.03, 0.02])
+    part.export(tmp_path / "part.stl")
+    name = str(tmp_path / "part.stl")
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "metrics.json").write_text(json.dumps({"object": name}))  # recorded before centring
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        before = recorded_object("prog", tmp_path / "run", name)
+    np.testing.assert_allclose(before.mesh.bounds, [[0.0, 0.0, 0.0], [0.08, 0.06, 0.04]], atol=1e-9)
+    (tmp_path / "run" / "metrics.json").write_text(json.dumps({"object": name, "object_file_shift_mm": [40, 30, 20]}))
+    with pytest.warns(UserWarning, match="moved the origin there"):
+        centred = recorded_object("prog", tmp_path / "run", name)
+    np.testing.assert_allclose(centred.mesh.bounds, [[-0.04, -0.03, -0.02], [0.04, 0.03, 0.02]], atol=1e-9)
 
 
 def test_a_run_whose_mesh_file_does_not_load_is_one_usage_line(tmp_path, capsys):

@@ -407,7 +407,7 @@ def test_the_analysis_bins_by_distance_past_the_target_incidence_and_force(monke
     from scripts.contact_quality import analyse, binned
 
     box = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
-    monkeypatch.setattr(objects, "load", lambda name: type("Model", (), {"mesh": box, "sharp_edges": np.zeros((0, 2, 3))})())
+    monkeypatch.setattr(objects, "load", lambda name, **_: type("Model", (), {"mesh": box, "sharp_edges": np.zeros((0, 2, 3))})())
     down = np.array([0.0, 0.0, -1.0])
     tilted = np.array([np.sin(np.radians(50.0)), 0.0, -np.cos(np.radians(50.0))])   # 50 deg off the top's normal
     rows = [  # (surface point, approach, target, peak force): the top face z = 0.05 m

@@ -165,6 +165,7 @@ def _overlap(a_min, a_max, b_min, b_max) -> float:
     return float(np.prod(np.clip(np.minimum(a_max, b_max) - np.maximum(a_min, b_min), 0, None)))
 
 
+@pytest.mark.filterwarnings("ignore:.*moved the origin there:UserWarning")  # the parts sit off the origin
 def test_two_overlapping_parts_are_merged_into_their_union_with_a_warning(tmp_path):
     size_a, size_b = np.array([0.10, 0.08, 0.06]), np.array([0.06, 0.10, 0.04])
     shift = np.array([0.05, 0.03, 0.02])
@@ -184,6 +185,7 @@ def test_two_overlapping_parts_are_merged_into_their_union_with_a_warning(tmp_pa
     np.testing.assert_allclose(model.mesh.bounds, union_bounds - union_bounds.mean(axis=0), atol=1e-6)  # centred
 
 
+@pytest.mark.filterwarnings("ignore:.*moved the origin there:UserWarning")  # the parts sit off the origin
 def test_parts_that_do_not_touch_are_kept_apart_and_the_warning_says_so(tmp_path):
     a = trimesh.creation.box(extents=(0.06, 0.06, 0.06))
     b = trimesh.creation.box(extents=(0.04, 0.04, 0.04))
@@ -201,6 +203,7 @@ def test_parts_that_do_not_touch_are_kept_apart_and_the_warning_says_so(tmp_path
         model = objects.load(path, cache_dir=tmp_path / "cache")
     assert model.mesh.body_count == 2
 
+@pytest.mark.filterwarnings("ignore:.*moved the origin there:UserWarning")  # the parts sit off the origin
 @pytest.mark.parametrize("suffix", [".obj", ".stl"])
 def test_parts_touching_along_a_face_become_one_body(tmp_path, suffix):
     """Two cubes sharing a face: an OBJ keeps each part's vertices; an STL is a triangle soup whose
