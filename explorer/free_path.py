@@ -93,17 +93,22 @@ class FreePathPlanner:
         self.config = config
         self.obstacles = [(np.asarray(c, float).reshape(3), np.asarray(h, float).reshape(3)) for c, h in obstacles]
 
+    def prior_clearance_m(self, q: np.ndarray, object_to_world) -> np.ndarray:
+        """(B, S) gap between each arm sphere and the prior box for configurations ``q`` (B, dof),
+        metres (negative: the sphere reaches into it). ``object_to_world`` = (R, t) of the stand."""
+        rotation, origin = object_to_world
+        centres = (self.spheres.centres_m(q) - origin) @ rotation  # object frame
+        return box_signed_distance_m(centres, self.prior.centre_m, self.prior.half_extent_m) - self.spheres.radii_m
+
     def clearance_m(self, q: np.ndarray, object_to_world) -> np.ndarray:
         """(B,) smallest gap between an arm sphere and the prior box or an obstacle for
         configurations ``q`` (B, dof), metres (negative: a sphere reaches into one).
         ``object_to_world`` = (R, t) of the stand."""
-        rotation, origin = object_to_world
         world = self.spheres.centres_m(q)
-        centres = (world - origin) @ rotation  # object frame
-        gaps = box_signed_distance_m(centres, self.prior.centre_m, self.prior.half_extent_m) - self.spheres.radii_m
+        gaps = self.prior_clearance_m(q, object_to_world)
         for centre, half in self.obstacles:
             gaps = np.minimum(gaps, box_signed_distance_m(world, centre, half) - self.spheres.radii_m)
-        return gaps.min(axis=1) if gaps.shape[1] else np.full(len(centres), np.inf)
+        return gaps.min(axis=1) if gaps.shape[1] else np.full(len(world), np.inf)
 
     def clear(self, q: np.ndarray, object_to_world) -> np.ndarray:
         """(B,) whether each configuration keeps ``clearance_m``."""

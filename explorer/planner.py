@@ -371,17 +371,8 @@ class ApproachPlanner:
             self._free_paths = self._free_path_planner()
         if self._free_paths is False:
             return float("inf")
-        from explorer.free_path import box_signed_distance_m
-
-        spheres = self._free_paths.spheres
-        world = spheres.centres_m(self.rest_q[None])[0]
-        gaps = []
-        for pose in self.positioner.poses:
-            rotation, origin = self.positioner.object_to_world(pose)
-            centres = (world - origin) @ rotation  # object frame
-            gaps.append(np.min(box_signed_distance_m(centres, self.prior.centre_m, self.prior.half_extent_m)
-                               - spheres.radii_m))
-        return float(np.min(gaps))
+        return min(float(np.min(self._free_paths.prior_clearance_m(self.rest_q[None], self.positioner.object_to_world(pose))))
+                   for pose in self.positioner.poses)
 
     def prior_exit_m(self, target_m: np.ndarray, approach_dir: np.ndarray) -> float:
         """Distance (metres) from ``target_m`` along ``approach_dir`` (object frame) to where the line
