@@ -46,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
+import objects
 from explorer import outputs
 from explorer.arm_calibration import with_fitted_link_lengths
 from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoContactMeasured, ObjectFrame, PressReleased,
@@ -261,7 +262,6 @@ class SessionReplay:
     """
 
     def __init__(self, session_dir: Path):
-        import objects
         import robots
         from robots.kinematics import ArmKinematics
 
@@ -338,10 +338,7 @@ class SessionReplay:
         object_name = self.metadata.get("object")
         if isinstance(object_name, str):
             try:
-                # A run that moved a mesh's origin recorded the shift; one that did not (no shift, or
-                # recorded before objects.load centred user meshes, 2026-11-28) ran in the file's frame.
-                self.truth = objects.load(object_name,
-                                          keep_frame="object_file_shift_mm" not in self.metadata).mesh
+                self.truth = objects.load_as_recorded(object_name, self.metadata).mesh
             except (ValueError, FileNotFoundError) as error:
                 self.truth_note = (f"object {object_name!r} not loaded ({error}): no errors against the truth; "
                                    "a mesh file named relative to where the run was made loads from there")
@@ -577,9 +574,9 @@ class SessionReplay:
     def _metrics(self, touches, gpis, settings, detector_config, use_normals, notes) -> dict:
         kinds = [t.kind for t in touches]
         recorded = [e.fields.get("result") for e in self.events if e.fields.get("result") in PRESSED_RESULTS]
+        shift = {key: self.metadata[key] for key in [objects.FILE_SHIFT_KEY] if key in self.metadata}
         return dict(
-            source_session=str(self.directory), object=self.metadata.get("object"),
-            **{key: self.metadata[key] for key in ("object_file_shift_mm",) if key in self.metadata},
+            source_session=str(self.directory), object=self.metadata.get("object"), **shift,
             robot=self.metadata.get("robot"), replay=dict(
                 asdict(settings), start_threshold_pa=detector_config.start_threshold_pa,
                 end_threshold_pa=detector_config.end_threshold_pa, use_normals=use_normals),

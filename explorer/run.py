@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+import objects
 from explorer.evaluation import jsonable
 from explorer.config import ExplorationConfig
 from explorer.contact import LOOP_SETTLING
@@ -106,11 +107,10 @@ def explore(settings: RunSettings, out_dir: Path, progress=None, resume: bool = 
                                  f"seed {arm[2]}; this run is {settings.robot!r}, {scene.profile.name!r}, seed "
                                  f"{settings.seed} (the seed draws the arm's errors): calibrate this arm")
             robot, kinematics = calibrated_arm(scene.arm, scene.kinematics, calibration)
-        shift = scene.object_model.file_shift_m
         rig = Rig(robot, scene.sensor, kinematics, scene.stand, object_prior(truth), truth,
                   dict(robot=settings.robot, sensor="simulated BNO055 + BMP280 under polyurethane",
                        object=settings.object, backend="simulation", profile=scene.profile.name,
-                       **({"object_file_shift_mm": (1e3 * shift).tolist()} if np.any(shift) else {}),
+                       **objects.shift_record(scene.object_model),
                        profile_parameters=scene.profile.changed_parameters(),
                        calibration=None if calibration is None else dict(
                            offset_rad=calibration.offset_rad.tolist(),
@@ -300,7 +300,6 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
     kinds = [r.kind for r in records]
     metrics: dict = dict(
         object=rig.description.get("object", settings.object), robot=settings.robot,
-        **{key: rig.description[key] for key in ("object_file_shift_mm",) if key in rig.description},
         backend=rig.description.get("backend"), strategy=settings.strategy,
         seed=settings.seed, use_normals=settings.use_normals,
         touches=len(records), contacts=kinds.count("contact"), misses=kinds.count("miss"),
@@ -314,6 +313,8 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
         phase_times_s=loop.times.as_dict(), evaluation_time_s=eval_s,
         completed=error is None, machine=f"{platform.machine()}, python {platform.python_version()}",
     )
+    if objects.FILE_SHIFT_KEY in rig.description:
+        metrics[objects.FILE_SHIFT_KEY] = rig.description[objects.FILE_SHIFT_KEY]
     if error is not None:
         metrics["error"] = dict(device=_device_of(error), type=type(error).__name__, message=str(error))
     metrics["error_curve"] = _carry_over(metrics, earlier or {}, curve)

@@ -10,8 +10,9 @@ Sizes and accuracy of the registry objects: objects/README.md.
 from objects.catalogue import names
 from objects.closing import ClosedSurface, close_surface
 from objects.features import sharp_edges
-from objects.loading import UNITS, default_cache_dir, file_label, in_metres, is_mesh_file_name, load, units_scale
+from objects.loading import (FILE_SHIFT_KEY, UNITS, default_cache_dir, file_label, in_metres, is_mesh_file_name, load,
+                             load_as_recorded, shift_record, units_scale)
 from objects.model import ObjectModel
 
-__all__ = ["UNITS", "ClosedSurface", "ObjectModel", "close_surface", "default_cache_dir", "file_label", "in_metres", "is_mesh_file_name", "load", "names",
-           "sharp_edges", "units_scale"]
+__all__ = ["FILE_SHIFT_KEY", "UNITS", "ClosedSurface", "ObjectModel", "close_surface", "default_cache_dir", "file_label", "in_metres", "is_mesh_file_name", "load", "load_as_recorded", "names",
+           "sharp_edges", "shift_record", "units_scale"]

@@ -13,7 +13,6 @@ and generated object. The result is written with a URDF into a cache folder so P
 """
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import json
 import os
@@ -48,8 +47,6 @@ CENTRING_TOLERANCE_M = 0.001
 #: Beside a closed mesh in the cache: what closing it did (read back instead of closing it again).
 CLOSED_NOTE = "closed.json"
 CLOSED_SUFFIX = ".closed.obj"
-#: How the repairs a re-read can still need begin (a note that parts stay apart is not one).
-_REPAIR_PREFIXES = ("merged ", "removed ", "filled ", "made ", "inverted ", "turned ")
 
 
 def default_cache_dir() -> pathlib.Path:
@@ -103,6 +100,23 @@ def in_metres(name_or_path: str | os.PathLike, units: str = "m", *,
     if generated.is_generated_name(name_or_path):
         generated.parse_name(name_or_path)
     return str(name_or_path)
+
+
+#: The key under which a run records :attr:`ObjectModel.file_shift_m` (millimetres) in its session
+#: metadata and ``metrics.json``, when its mesh was moved.
+FILE_SHIFT_KEY = "object_file_shift_mm"
+
+
+def shift_record(model: ObjectModel) -> dict:
+    """``{FILE_SHIFT_KEY: [x, y, z] mm}`` for a model whose origin was moved, else ``{}``: what a run records."""
+    return {FILE_SHIFT_KEY: (1e3 * model.file_shift_m).tolist()} if np.any(model.file_shift_m) else {}
+
+
+def load_as_recorded(name: str, record: dict) -> ObjectModel:
+    """The object a run's record (its session metadata or ``metrics.json``) names, in the frame the
+    run explored it in: centred when it recorded a shift (:func:`shift_record`), the file's own
+    otherwise (no shift, or recorded before user meshes were centred, 2026-11-28)."""
+    return load(name, keep_frame=FILE_SHIFT_KEY not in record)
 
 
 def load(name_or_path: str | os.PathLike, *, scale: float | None = None,
@@ -162,11 +176,12 @@ def load(name_or_path: str | os.PathLike, *, scale: float | None = None,
 
 
 def _model(name: str, description: str, mesh: trimesh.Trimesh, mesh_path: pathlib.Path,
-           urdf_path: pathlib.Path) -> ObjectModel:
+           urdf_path: pathlib.Path, file_shift_m=(0.0, 0.0, 0.0)) -> ObjectModel:
     lower, upper = np.asarray(mesh.bounds, float)
     return ObjectModel(name=name, description=description, mesh=mesh, mesh_path=mesh_path,
                        urdf_path=urdf_path, sharp_edges=sharp_edges(mesh),
-                       centre_m=(lower + upper) / 2, extent_m=upper - lower)
+                       centre_m=(lower + upper) / 2, extent_m=upper - lower,
+                       file_shift_m=np.asarray(file_shift_m, float))
 
 
 def _load_registry(name: str) -> ObjectModel:
@@ -460,11 +475,11 @@ def _settled(mesh_path: pathlib.Path, mesh: trimesh.Trimesh, comment: str) -> tr
     for _ in range(3):
         _write_if_changed(mesh_path, obj_text(mesh, comment))
         reread = _read_mesh(mesh_path)
+        repaired = reread.copy()
         try:
-            repaired, repairs = _repaired(mesh_path, reread, 1.0)
+            if not _repair(mesh_path, repaired):
+                return reread
         except _OpenSurface:
-            return reread
-        if not any(repair.startswith(_REPAIR_PREFIXES) for repair in repairs):
             return reread
         mesh = repaired
     _write_if_changed(mesh_path, obj_text(mesh, comment))
@@ -499,4 +514,4 @@ def _load_file(path: pathlib.Path, scale: float, cache_dir: pathlib.Path, keep_f
     mesh = _settled(mesh_path, mesh, comment)
     _write_if_changed(urdf_path, urdf_text(name, mesh_path.name, USER_RGBA))
     description = f"user mesh {path.name} (scale {scale:g}), {' x '.join(f'{e * 1e3:.1f}' for e in mesh.extents)} mm"
-    return dataclasses.replace(_model(name, description, mesh, mesh_path, urdf_path), file_shift_m=shift)
+    return _model(name, description, mesh, mesh_path, urdf_path, file_shift_m=shift)

@@ -173,21 +173,19 @@ def check_ray_address(parser: argparse.ArgumentParser, address: str | None, opti
                      f"'ray start --head' or use {option} local")
 
 
-def _recorded_shift(run) -> bool:
-    """Whether the run in directory ``run`` (or its session directory) recorded that it moved its mesh's
-    origin (``object_file_shift_mm``, since 2026-11-28)."""
+def _run_record(run) -> dict:
+    """What the run in directory ``run`` recorded about itself: its ``metrics.json``, else its
+    session's metadata; ``{}`` when neither reads (or ``run`` is None)."""
     import json
     from pathlib import Path
 
-    if run is None:
-        return True  # no record to go by: as a run today would load it
-    run = Path(run)
-    for path in (run / "metrics.json", run / "session" / "metadata.json", run / "metadata.json"):
-        try:
-            return "object_file_shift_mm" in json.loads(path.read_text())
-        except (OSError, ValueError):
-            continue
-    return True
+    if run is not None:
+        for path in (Path(run) / "metrics.json", Path(run) / "session" / "metadata.json", Path(run) / "metadata.json"):
+            try:
+                return json.loads(path.read_text())
+            except (OSError, ValueError):
+                continue
+    return {}
 
 
 def recorded_object(prog: str, run, name: str):
@@ -199,8 +197,8 @@ def recorded_object(prog: str, run, name: str):
     import objects
 
     try:
-        # in the frame the run explored it in: centred when the run recorded a shift, else the file's
-        return objects.load(name, keep_frame=not _recorded_shift(run))
+        record = _run_record(run)
+        return objects.load_as_recorded(name, record) if record else objects.load(name)
     except (ValueError, FileNotFoundError) as error:
         print(f"{prog}: error: {run}: its object {name!r} does not load ({error}); run this from the directory "
               "the run was made in (runs recorded since 2026-11-28 name a mesh file by its absolute path)",
