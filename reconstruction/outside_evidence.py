@@ -6,9 +6,18 @@ of the object there (BENCHMARKS.md, issue 10). Those lobes lie outside the conve
 contacts. True surface can lie there too, in two ways, and the rule keeps both:
 
 * between sparse contacts (a box's corner between contacts on three faces) it bulges out of the
-  hull facet they span, by an amount that grows with the facet: a point counts as free only when
-  it lies outside the hull by more than ``facet_fraction`` times the circumradius of the facet it
-  lies in front of (the facet of the largest plane distance), and by at least ``min_margin_m``;
+  hull facet they span, by an amount that grows with the gaps between them: a point counts as free
+  only when it lies outside the hull by more than ``facet_fraction`` times the size of the gap it
+  lies in front of, and by at least ``min_margin_m``. The gap's size is the circumradius of the
+  facet it lies in front of (the facet of the largest plane distance) or, when smaller, the
+  distance from its foot on that facet's plane to the ``local_neighbours``-th nearest contact. A
+  large facet can span many contacts a few millimetres behind it (a tray's wall between contacts
+  at its two ends): the surface beyond it is then as far from a contact as the contacts are
+  apart there, not as the facet is large, and where contacts are spread over the surface (sampled
+  or explored) a bulge much higher than their spacing would have been touched (BENCHMARKS.md,
+  issue 10: the facet alone let a 30 mm lobe stand off a tray's wall 20 mm from the contacts on
+  its inside). Only with the tangent-plane test below, which keeps every convex part of the
+  surface, whose bulge between contacts the local gap could underestimate;
 * beyond the border of the touched region (the untouched half of an object) it may continue
   anywhere: a point counts as free only when its foot on that facet's plane is enclosed by
   contacts, no opening wider than ``max_open_angle_rad`` between the directions to its nearest
@@ -40,6 +49,8 @@ import numpy as np
 
 #: Free space starts this fraction of a hull facet's circumradius outside the facet ...
 DEFAULT_FACET_FRACTION = 0.75
+#: ... or of the distance from its foot to this nearest contact, when that is smaller ...
+DEFAULT_LOCAL_NEIGHBOURS = 3
 #: ... and never nearer the hull than this, metres.
 DEFAULT_MIN_MARGIN_M = 4.0e-3
 #: ... and only where its foot is enclosed by contacts: no wider opening than this between the
@@ -68,7 +79,8 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
                           max_open_angle_rad: float | None = DEFAULT_MAX_OPEN_ANGLE_RAD,
                           normals: np.ndarray | None = None,
                           tangent_margin_m: float | None = DEFAULT_TANGENT_MARGIN_M,
-                          normal_tolerance_rad: float = DEFAULT_NORMAL_TOLERANCE_RAD) -> tuple[np.ndarray, np.ndarray]:
+                          normal_tolerance_rad: float = DEFAULT_NORMAL_TOLERANCE_RAD,
+                          local_neighbours: int | None = DEFAULT_LOCAL_NEIGHBOURS) -> tuple[np.ndarray, np.ndarray]:
     """Grid points of ``box`` taken as free space by the hull rule (module docstring).
 
     Parameters
@@ -77,7 +89,9 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
     box : ((3,), (3,)) float, metres
         The region to cover (usually the GPIS region).
     facet_fraction, min_margin_m : float
-        The margin outside a hull facet: ``max(facet_fraction * circumradius, min_margin_m)``.
+        The margin outside a hull facet: ``max(facet_fraction * gap, min_margin_m)``, ``gap`` the
+        facet's circumradius or the distance from the point's foot on its plane to the
+        ``local_neighbours``-th nearest contact, whichever is smaller.
     max_open_angle_rad : float or None
         The widest opening around the foot between its nearest contacts; None: no enclosure test.
     normals : (n, 3) float, optional
@@ -87,6 +101,9 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
         tangent-plane test.
     normal_tolerance_rad : float
         The tangent planes' tilt allowed for the normals' error, radians.
+    local_neighbours : int or None
+        How many nearest contacts of the foot bound the gap (module docstring); None, or no
+        tangent-plane test: the facet's circumradius alone.
 
     Returns
     -------
@@ -106,6 +123,8 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
         raise ValueError(f"tangent_margin_m must be None or a length >= 0, got {tangent_margin_m!r}")
     if not (0 <= normal_tolerance_rad < np.pi / 2):
         raise ValueError(f"normal_tolerance_rad must be an angle in [0, pi / 2), got {normal_tolerance_rad!r}")
+    if local_neighbours is not None and not (isinstance(local_neighbours, (int, np.integer)) and local_neighbours >= 1):
+        raise ValueError(f"local_neighbours must be None or a count >= 1, got {local_neighbours!r}")
     contacts = np.asarray(contacts, float)
     if normals is not None:
         normals = np.asarray(normals, float)
@@ -132,11 +151,15 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
         outside = signed[np.arange(len(x)), facet]
         beyond = outside > min_margin_m
         x, outside, facet = x[beyond], outside[beyond], facet[beyond]
-        free = outside > np.maximum(facet_fraction * circumradius[facet], min_margin_m)
+        foot = x - outside[:, None] * planes[facet, :3]  # each point's foot on its facet's plane
+        gap = circumradius[facet]
+        if local_neighbours is not None and normals is not None and tangent_margin_m is not None and len(x):
+            k = min(int(local_neighbours), len(contacts))
+            nearest, _ = tree.query(foot, k=k)
+            gap = np.minimum(gap, nearest.reshape(len(x), k)[:, -1])
+        free = outside > np.maximum(facet_fraction * gap, min_margin_m)
         if max_open_angle_rad is not None and free.any():
-            facet_normals = planes[facet[free], :3]
-            foot = x[free] - outside[free, None] * facet_normals  # the point's foot on its facet's plane
-            free[free] = _enclosed(foot, facet_normals, contacts, tree, max_open_angle_rad)
+            free[free] = _enclosed(foot[free], planes[facet[free], :3], contacts, tree, max_open_angle_rad)
         if normals is not None and tangent_margin_m is not None and free.any():
             free[free] = _ahead_of_a_tangent_plane(x[free], contacts, normals, tangent_margin_m,
                                                    normal_tolerance_rad)
@@ -189,7 +212,8 @@ def add_outside_evidence(gpis, facet_fraction: float = DEFAULT_FACET_FRACTION,
                          max_open_angle_rad: float | None = DEFAULT_MAX_OPEN_ANGLE_RAD,
                          noise_m: float = DEFAULT_EVIDENCE_NOISE_M, box=None,
                          tangent_margin_m: float | None = DEFAULT_TANGENT_MARGIN_M,
-                         normal_tolerance_rad: float = DEFAULT_NORMAL_TOLERANCE_RAD) -> int:
+                         normal_tolerance_rad: float = DEFAULT_NORMAL_TOLERANCE_RAD,
+                         local_neighbours: int | None = DEFAULT_LOCAL_NEIGHBOURS) -> int:
     """Add value rows where the GPIS puts solid in the hull rule's free space (module docstring).
 
     Parameters
@@ -197,7 +221,7 @@ def add_outside_evidence(gpis, facet_fraction: float = DEFAULT_FACET_FRACTION,
     gpis : reconstruction.gpis.GPIS
         Fitted (at least 4 contacts spanning a volume, else nothing is added); modified in place
         through :meth:`GPIS.add_values`.
-    facet_fraction, min_margin_m, max_open_angle_rad, tangent_margin_m, normal_tolerance_rad : float or None
+    facet_fraction, min_margin_m, max_open_angle_rad, tangent_margin_m, normal_tolerance_rad, local_neighbours
         See :func:`free_space_candidates` (the tangent test uses the GPIS's contact normals).
     noise_m : float
         Standard deviation of the added rows, metres.
@@ -213,7 +237,8 @@ def add_outside_evidence(gpis, facet_fraction: float = DEFAULT_FACET_FRACTION,
         raise ValueError(f"noise_m must be a positive length, got {noise_m!r}")
     points, distance = free_space_candidates(gpis.contact_points, gpis.region if box is None else box,
                                              facet_fraction, min_margin_m, max_open_angle_rad,
-                                             gpis.contact_normals, tangent_margin_m, normal_tolerance_rad)
+                                             gpis.contact_normals, tangent_margin_m, normal_tolerance_rad,
+                                             local_neighbours)
     added = 0
     for _ in range(MAX_ROUNDS):
         if not len(points):

@@ -18,7 +18,7 @@ BOX = ((-0.05, -0.05, -0.05), (0.15, 0.15, 0.15))
 def test_candidates_are_the_points_beyond_the_facet_margin():
     fraction = 0.5
     points, distance = free_space_candidates(CUBE, BOX, facet_fraction=fraction, min_margin_m=0.0,
-                                             max_open_angle_rad=None)
+                                             max_open_angle_rad=None, local_neighbours=None)
     # Independently: the cube's hull facets are half faces, right triangles with legs 0.1 m, whose
     # circumradius (largest vertex distance from the centroid) is sqrt(5) / 3 * 0.1 m; the distance
     # outside the cube is the largest excess over its six face planes.
@@ -115,11 +115,45 @@ def test_candidates_lie_inside_the_box_whatever_its_size():
 
 
 def test_the_margin_grows_with_the_facet_and_has_a_floor():
-    loose, _ = free_space_candidates(CUBE, BOX, facet_fraction=0.5, min_margin_m=0.0, max_open_angle_rad=None)
-    tight, _ = free_space_candidates(CUBE, BOX, facet_fraction=0.25, min_margin_m=0.0, max_open_angle_rad=None)
+    loose, _ = free_space_candidates(CUBE, BOX, facet_fraction=0.5, min_margin_m=0.0, max_open_angle_rad=None,
+                                     local_neighbours=None)
+    tight, _ = free_space_candidates(CUBE, BOX, facet_fraction=0.25, min_margin_m=0.0, max_open_angle_rad=None,
+                                     local_neighbours=None)
     _, floored = free_space_candidates(CUBE, BOX, facet_fraction=0.0, min_margin_m=0.02, max_open_angle_rad=None)
     assert 0 < len(loose) < len(tight)
     assert floored.min() > 0.02
+
+
+def test_a_densely_touched_face_under_a_large_facet_sets_the_margin_by_its_own_gaps():
+    # A 100 mm square face touched on a 25 mm grid, and the face opposite it. Qhull leaves the
+    # face's inner contacts out of the hull's vertices (they are coplanar), so the facets over
+    # the face span its corners (circumradius 71 mm) and the facet rule alone frees nothing
+    # nearer the face than 0.75 x 71 mm. With the local rule the margin over a point of the face
+    # is 0.75 x the distance from it to its third-nearest contact: s / sqrt(2) over a cell's
+    # centre, s over a contact (the first is under it, the next two at s), s the grid's pitch.
+    pitch, fraction = 0.025, 0.75
+    grid = np.array([[x, y] for x in np.arange(5) * pitch for y in np.arange(5) * pitch])
+    contacts = np.vstack([np.column_stack([grid, np.full(len(grid), 0.1)]),
+                          np.column_stack([grid, np.zeros(len(grid))])])
+    normals = np.repeat([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]], len(grid), axis=0)
+    box = ((-0.02, -0.02, -0.02), (0.12, 0.12, 0.17))
+    common = dict(facet_fraction=fraction, min_margin_m=0.0, max_open_angle_rad=None, normals=normals)
+    over_face = lambda p: np.all((p[:, :2] > 0.0125) & (p[:, :2] < 0.0875), axis=1) & (p[:, 2] > 0.1)  # noqa: E731
+    local, height = free_space_candidates(contacts, box, **common)
+    facet_only, _ = free_space_candidates(contacts, box, **common, local_neighbours=None)
+    # without the tangent test (the classic GPIS has no normals) the facet's size stands: nothing
+    # would guard a convex part
+    for unguarded in (dict(common, normals=None), dict(common, tangent_margin_m=None)):
+        free, _ = free_space_candidates(contacts, box, **unguarded)
+        assert np.array_equal(free[over_face(free)], facet_only[over_face(facet_only)])
+    step = max(GRID_SPACING_M, 0.19 / GRID_CELLS)
+    assert fraction * pitch / np.sqrt(2) < local[over_face(local), 2].min() - 0.1 < fraction * pitch + step
+    assert facet_only[over_face(facet_only), 2].min() - 0.1 > fraction * np.hypot(0.05, 0.05) - step
+    # every point freed over the face lies above it by more than its margin, computed here by brute force
+    above = local[over_face(local)]
+    third = np.sort(np.linalg.norm(above[:, None, :2] - grid[None], axis=2), axis=1)[:, 2]
+    assert np.all(height[over_face(local)] > fraction * third - 1e-12)
+    assert np.allclose(height[over_face(local)], above[:, 2] - 0.1)
 
 
 def test_contacts_spanning_no_volume_give_no_candidates():
@@ -135,6 +169,7 @@ def test_contacts_spanning_no_volume_give_no_candidates():
     (dict(tangent_margin_m=-1e-3), "tangent_margin_m must be None or a length >= 0"),
     (dict(normal_tolerance_rad=np.pi / 2), "normal_tolerance_rad must be an angle in"),
     (dict(normals=np.zeros((3, 3))), "normals must be one per contact"),
+    (dict(local_neighbours=0), "local_neighbours must be None or a count >= 1"),
 ])
 def test_bad_margins_are_refused(kwargs, message):
     with pytest.raises(ValueError, match=message):
