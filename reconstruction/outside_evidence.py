@@ -10,14 +10,17 @@ contacts. True surface can lie there too, in two ways, and the rule keeps both:
   only when it lies outside the hull by more than ``facet_fraction`` times the size of the gap it
   lies in front of, and by at least ``min_margin_m``. The gap's size is the circumradius of the
   facet it lies in front of (the facet of the largest plane distance) or, when smaller, the
-  distance from its foot on that facet's plane to the ``local_neighbours``-th nearest contact. A
+  distance from its foot on that facet's plane to the ``local_neighbours``-th nearest contact
+  (this one's margin never under ``min_local_margin_m``). A
   large facet can span many contacts a few millimetres behind it (a tray's wall between contacts
   at its two ends): the surface beyond it is then as far from a contact as the contacts are
   apart there, not as the facet is large, and where contacts are spread over the surface (sampled
   or explored) a bulge much higher than their spacing would have been touched (BENCHMARKS.md,
   issue 10: the facet alone let a 30 mm lobe stand off a tray's wall 20 mm from the contacts on
   its inside). Only with the tangent-plane test below, which keeps every convex part of the
-  surface, whose bulge between contacts the local gap could underestimate;
+  surface, whose bulge between contacts the local gap could underestimate; and the floor keeps
+  an untouched tip or stem of a curved part, which bulged 6-9 mm past the local margin on the
+  tuning shapes and the registry banana;
 * beyond the border of the touched region (the untouched half of an object) it may continue
   anywhere: a point counts as free only when its foot on that facet's plane is enclosed by
   contacts, no opening wider than ``max_open_angle_rad`` between the directions to its nearest
@@ -51,6 +54,8 @@ import numpy as np
 DEFAULT_FACET_FRACTION = 0.75
 #: ... or of the distance from its foot to this nearest contact, when that is smaller ...
 DEFAULT_LOCAL_NEIGHBOURS = 3
+#: ... but the margin that distance sets is at least this, metres.
+DEFAULT_MIN_LOCAL_MARGIN_M = 10.0e-3
 #: ... and never nearer the hull than this, metres.
 DEFAULT_MIN_MARGIN_M = 4.0e-3
 #: ... and only where its foot is enclosed by contacts: no wider opening than this between the
@@ -80,7 +85,8 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
                           normals: np.ndarray | None = None,
                           tangent_margin_m: float | None = DEFAULT_TANGENT_MARGIN_M,
                           normal_tolerance_rad: float = DEFAULT_NORMAL_TOLERANCE_RAD,
-                          local_neighbours: int | None = DEFAULT_LOCAL_NEIGHBOURS) -> tuple[np.ndarray, np.ndarray]:
+                          local_neighbours: int | None = DEFAULT_LOCAL_NEIGHBOURS,
+                          min_local_margin_m: float = DEFAULT_MIN_LOCAL_MARGIN_M) -> tuple[np.ndarray, np.ndarray]:
     """Grid points of ``box`` taken as free space by the hull rule (module docstring).
 
     Parameters
@@ -89,9 +95,10 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
     box : ((3,), (3,)) float, metres
         The region to cover (usually the GPIS region).
     facet_fraction, min_margin_m : float
-        The margin outside a hull facet: ``max(facet_fraction * gap, min_margin_m)``, ``gap`` the
-        facet's circumradius or the distance from the point's foot on its plane to the
-        ``local_neighbours``-th nearest contact, whichever is smaller.
+        The margin outside a hull facet: ``max(facet_fraction * circumradius, min_margin_m)``, or
+        where smaller ``max(facet_fraction * d, min_local_margin_m, min_margin_m)``, ``d`` the
+        distance from the point's foot on the facet's plane to its ``local_neighbours``-th nearest
+        contact.
     max_open_angle_rad : float or None
         The widest opening around the foot between its nearest contacts; None: no enclosure test.
     normals : (n, 3) float, optional
@@ -102,8 +109,10 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
     normal_tolerance_rad : float
         The tangent planes' tilt allowed for the normals' error, radians.
     local_neighbours : int or None
-        How many nearest contacts of the foot bound the gap (module docstring); None, or no
+        Which nearest contact of the foot sets the local margin (module docstring); None, or no
         tangent-plane test: the facet's circumradius alone.
+    min_local_margin_m : float
+        The local margin's floor, metres.
 
     Returns
     -------
@@ -125,6 +134,8 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
         raise ValueError(f"normal_tolerance_rad must be an angle in [0, pi / 2), got {normal_tolerance_rad!r}")
     if local_neighbours is not None and not (isinstance(local_neighbours, (int, np.integer)) and local_neighbours >= 1):
         raise ValueError(f"local_neighbours must be None or a count >= 1, got {local_neighbours!r}")
+    if not (np.isfinite(min_local_margin_m) and min_local_margin_m >= 0):
+        raise ValueError(f"min_local_margin_m must be a length >= 0, got {min_local_margin_m!r}")
     contacts = np.asarray(contacts, float)
     if normals is not None:
         normals = np.asarray(normals, float)
@@ -152,12 +163,13 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
         beyond = outside > min_margin_m
         x, outside, facet = x[beyond], outside[beyond], facet[beyond]
         foot = x - outside[:, None] * planes[facet, :3]  # each point's foot on its facet's plane
-        gap = circumradius[facet]
+        margin = facet_fraction * circumradius[facet]
         if local_neighbours is not None and normals is not None and tangent_margin_m is not None and len(x):
             k = min(int(local_neighbours), len(contacts))
             nearest, _ = tree.query(foot, k=k)
-            gap = np.minimum(gap, nearest.reshape(len(x), k)[:, -1])
-        free = outside > np.maximum(facet_fraction * gap, min_margin_m)
+            local = np.maximum(facet_fraction * nearest.reshape(len(x), k)[:, -1], min_local_margin_m)
+            margin = np.minimum(margin, local)
+        free = outside > np.maximum(margin, min_margin_m)
         if max_open_angle_rad is not None and free.any():
             free[free] = _enclosed(foot[free], planes[facet[free], :3], contacts, tree, max_open_angle_rad)
         if normals is not None and tangent_margin_m is not None and free.any():
@@ -213,7 +225,8 @@ def add_outside_evidence(gpis, facet_fraction: float = DEFAULT_FACET_FRACTION,
                          noise_m: float = DEFAULT_EVIDENCE_NOISE_M, box=None,
                          tangent_margin_m: float | None = DEFAULT_TANGENT_MARGIN_M,
                          normal_tolerance_rad: float = DEFAULT_NORMAL_TOLERANCE_RAD,
-                         local_neighbours: int | None = DEFAULT_LOCAL_NEIGHBOURS) -> int:
+                         local_neighbours: int | None = DEFAULT_LOCAL_NEIGHBOURS,
+                         min_local_margin_m: float = DEFAULT_MIN_LOCAL_MARGIN_M) -> int:
     """Add value rows where the GPIS puts solid in the hull rule's free space (module docstring).
 
     Parameters
@@ -221,8 +234,10 @@ def add_outside_evidence(gpis, facet_fraction: float = DEFAULT_FACET_FRACTION,
     gpis : reconstruction.gpis.GPIS
         Fitted (at least 4 contacts spanning a volume, else nothing is added); modified in place
         through :meth:`GPIS.add_values`.
-    facet_fraction, min_margin_m, max_open_angle_rad, tangent_margin_m, normal_tolerance_rad, local_neighbours
+    facet_fraction, min_margin_m, max_open_angle_rad, tangent_margin_m, normal_tolerance_rad : float or None
         See :func:`free_space_candidates` (the tangent test uses the GPIS's contact normals).
+    local_neighbours, min_local_margin_m : int or None, float
+        See :func:`free_space_candidates`.
     noise_m : float
         Standard deviation of the added rows, metres.
     box : ((3,), (3,)) float, optional
@@ -238,7 +253,7 @@ def add_outside_evidence(gpis, facet_fraction: float = DEFAULT_FACET_FRACTION,
     points, distance = free_space_candidates(gpis.contact_points, gpis.region if box is None else box,
                                              facet_fraction, min_margin_m, max_open_angle_rad,
                                              gpis.contact_normals, tangent_margin_m, normal_tolerance_rad,
-                                             local_neighbours)
+                                             local_neighbours, min_local_margin_m)
     added = 0
     for _ in range(MAX_ROUNDS):
         if not len(points):

@@ -154,6 +154,9 @@ def test_a_densely_touched_face_under_a_large_facet_sets_the_margin_by_its_own_g
     third = np.sort(np.linalg.norm(above[:, None, :2] - grid[None], axis=2), axis=1)[:, 2]
     assert np.all(height[over_face(local)] > fraction * third - 1e-12)
     assert np.allclose(height[over_face(local)], above[:, 2] - 0.1)
+    # the local margin's floor: none of it nearer the face than the floor, the facet's margin above it
+    floored, _ = free_space_candidates(contacts, box, **common, min_local_margin_m=0.029)
+    assert 0.029 < floored[over_face(floored), 2].min() - 0.1 < 0.029 + step
 
 
 def test_contacts_spanning_no_volume_give_no_candidates():
@@ -170,6 +173,7 @@ def test_contacts_spanning_no_volume_give_no_candidates():
     (dict(normal_tolerance_rad=np.pi / 2), "normal_tolerance_rad must be an angle in"),
     (dict(normals=np.zeros((3, 3))), "normals must be one per contact"),
     (dict(local_neighbours=0), "local_neighbours must be None or a count >= 1"),
+    (dict(min_local_margin_m=-1e-3), "min_local_margin_m must be a length >= 0"),
 ])
 def test_bad_margins_are_refused(kwargs, message):
     with pytest.raises(ValueError, match=message):
