@@ -10,17 +10,14 @@ contacts. True surface can lie there too, in two ways, and the rule keeps both:
   only when it lies outside the hull by more than ``facet_fraction`` times the size of the gap it
   lies in front of, and by at least ``min_margin_m``. The gap's size is the circumradius of the
   facet it lies in front of (the facet of the largest plane distance) or, when smaller, the
-  distance from its foot on that facet's plane to the ``local_neighbours``-th nearest contact
-  (this one's margin never under ``min_local_margin_m``). A
-  large facet can span many contacts a few millimetres behind it (a tray's wall between contacts
-  at its two ends): the surface beyond it is then as far from a contact as the contacts are
-  apart there, not as the facet is large, and where contacts are spread over the surface (sampled
-  or explored) a bulge much higher than their spacing would have been touched (BENCHMARKS.md,
-  issue 10: the facet alone let a 30 mm lobe stand off a tray's wall 20 mm from the contacts on
-  its inside). Only with the tangent-plane test below, which keeps every convex part of the
-  surface, whose bulge between contacts the local gap could underestimate; and the floor keeps
-  an untouched tip or stem of a curved part, which bulged 6-9 mm past the local margin on the
-  tuning shapes and the registry banana;
+  distance from its foot on that facet's plane to the ``local_neighbours``-th nearest contact, with
+  a floor of ``min_local_margin_m`` on the margin this one sets. A large facet can span many
+  contacts a few millimetres behind it (a tray's wall between contacts at its two ends); where
+  contacts are spread over the surface, a bulge much higher than their spacing would have been
+  touched (BENCHMARKS.md, issue 10: the facet alone let a 30 mm lobe stand off a tray's wall 20 mm
+  from the contacts on its inside). The local gap is used only with the tangent-plane test below,
+  which keeps every convex part; its floor keeps an untouched tip or stem of a curved part (6-9 mm
+  past the local margin on tuning shapes and the registry banana);
 * beyond the border of the touched region (the untouched half of an object) it may continue
   anywhere: a point counts as free only when its foot on that facet's plane is enclosed by
   contacts, no opening wider than ``max_open_angle_rad`` between the directions to its nearest
@@ -163,13 +160,14 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
         beyond = outside > min_margin_m
         x, outside, facet = x[beyond], outside[beyond], facet[beyond]
         foot = x - outside[:, None] * planes[facet, :3]  # each point's foot on its facet's plane
-        margin = facet_fraction * circumradius[facet]
-        if local_neighbours is not None and normals is not None and tangent_margin_m is not None and len(x):
-            k = min(int(local_neighbours), len(contacts))
-            nearest, _ = tree.query(foot, k=k)
-            local = np.maximum(facet_fraction * nearest.reshape(len(x), k)[:, -1], min_local_margin_m)
-            margin = np.minimum(margin, local)
-        free = outside > np.maximum(margin, min_margin_m)
+        free = outside > np.maximum(facet_fraction * circumradius[facet], min_margin_m)
+        if local_neighbours is not None and normals is not None and tangent_margin_m is not None:
+            # the local margin frees more only beyond its floor: look up the nearest contacts there alone
+            maybe = np.flatnonzero(~free & (outside > max(min_local_margin_m, min_margin_m)))
+            if len(maybe):
+                k = min(int(local_neighbours), len(contacts))
+                nearest, _ = tree.query(foot[maybe], k=k)
+                free[maybe] = outside[maybe] > facet_fraction * nearest.reshape(len(maybe), k)[:, -1]
         if max_open_angle_rad is not None and free.any():
             free[free] = _enclosed(foot[free], planes[facet[free], :3], contacts, tree, max_open_angle_rad)
         if normals is not None and tangent_margin_m is not None and free.any():
