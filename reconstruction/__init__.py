@@ -10,7 +10,9 @@ Public API:
 * :func:`mesh_zero_level` (coarse-to-fine marching cubes of any implicit function);
 * :func:`confident_surface` (cut the faces where the posterior std of ``f`` is above a bound);
 * :func:`add_outside_evidence` (value rows where the mean puts solid well outside the contacts'
-  convex hull and tangent planes; ``GPIS.mesh()`` applies it to a copy by default);
+  convex hull and tangent planes, or in front of a flat face no contact lies in front of:
+  :func:`supporting_face_planes` -> :class:`FacePlanes`; ``GPIS.mesh()`` applies it to a copy by
+  default);
 * metrics: :func:`surface_error` (-> :class:`SurfaceError`), :func:`shape_metrics`,
   :func:`point_cloud_metrics` (-> :class:`ShapeMetrics`: Chamfer, F-score, normal consistency),
   :func:`contact_coverage`, :func:`recess_error` (-> :class:`RecessError`: the insides against the
@@ -37,6 +39,8 @@ _LAZY = {
     "mesh_zero_level": "reconstruction.meshing",
     "confident_surface": "reconstruction.confidence",
     "add_outside_evidence": "reconstruction.outside_evidence",
+    "FacePlanes": "reconstruction.face_planes",
+    "supporting_face_planes": "reconstruction.face_planes",
     "SurfaceError": "reconstruction.metrics",
     "Topology": "reconstruction.topology",
     "surface_topology": "reconstruction.topology",

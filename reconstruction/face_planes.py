@@ -1,0 +1,162 @@
+"""Supporting face planes: flat faces of the contacts that no contact lies in front of (issue 10).
+
+One measured normal is off by 7 deg on average (the sensor; more on steep surfaces), so a single
+contact's tangent plane says little tens of millimetres away: the outside evidence allows each plane
+a 15 deg tilt (:mod:`reconstruction.outside_evidence`). A flat face touched at several places is
+known far better. Contacts within ``radius_m`` of a contact whose normals agree with its own and
+that lie within ``flatness_m`` of its tangent plane are one face; a plane fitted through at least
+``min_contacts`` of them (least squares, spanning an area, not a line) tilts by about their
+position noise over the patch's span: about 1 deg for sampled contacts, 0.2 mm along the normal
+over 20 mm.
+
+Such a plane is *supporting* when no contact at all lies in front of it by more than ``margin_m``
+plus ``sin(tolerance_rad)`` times its distance from the face. A convex object lies behind each of
+its supporting planes, so space in front of one is free: past a sharp corner of a wedge or a prism,
+beyond a flat bottom. A concave face is not supporting (a tray's floor has its walls in front of
+it), nor is a face of one part of a non-convex object that has a touched part in front of it (the
+L tool's grip under its barrel). A doubly curved surface of radius under about 0.2 m departs from
+a plane by more than ``flatness_m`` within 25 mm and gives no plane. A cylinder's side can give one
+along its axis, tilted by up to ``flatness_m`` over the patch's half width where the contacts lie
+unevenly across it; each plane's tilt allowance is at least that, so a narrow patch frees little.
+
+Written here rather than taken from a library: a statement about measured contacts and normals,
+not a mesh operation.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Contacts within this distance of a contact can be on its face, metres ...
+DEFAULT_FACE_RADIUS_M = 0.025
+#: ... when their normals lie within this angle of its own, radians ...
+DEFAULT_FACE_ANGLE_RAD = float(np.radians(20.0))
+#: ... and they lie within this distance of its tangent plane (and of the fitted plane), metres.
+DEFAULT_FLATNESS_M = 1.5e-3
+#: A face is fitted through at least this many contacts.
+DEFAULT_MIN_CONTACTS = 4
+#: The fitted plane's tilt allowed for its error, radians.
+DEFAULT_FACE_TOLERANCE_RAD = float(np.radians(5.0))
+#: In front of a plane means by more than this plus the tilt's share of the distance, metres (above
+#: ``DEFAULT_FLATNESS_M``: a gently curved face may bulge that far in front of its fitted plane).
+DEFAULT_FACE_MARGIN_M = 2.0e-3
+#: A patch whose second principal spread is below this fraction of its first is a line: its tilt
+#: about that line is not known.
+_MIN_SPREAD_RATIO = 0.3
+_CHUNK = 2000
+
+
+@dataclass(frozen=True)
+class FacePlanes:
+    """Fitted face planes, object frame.
+
+    Attributes
+    ----------
+    centres : (m, 3) float
+        A point on each plane (the centroid of its face's contacts), metres.
+    normals : (m, 3) float
+        Each plane's outward unit normal.
+    margin_m : float
+        What "in front of" means (:meth:`in_front`), metres.
+    tolerance_rad : float or (m,) float
+        Each plane's tilt allowed for its error, radians.
+    """
+
+    centres: np.ndarray
+    normals: np.ndarray
+    margin_m: float = DEFAULT_FACE_MARGIN_M
+    tolerance_rad: float | np.ndarray = DEFAULT_FACE_TOLERANCE_RAD
+
+    def __len__(self) -> int:
+        return len(self.centres)
+
+    def __getitem__(self, index) -> "FacePlanes":
+        """The planes at ``index`` (an int, a slice, an index array or a boolean mask)."""
+        index = np.atleast_1d(np.arange(len(self))[index])
+        tolerance = np.broadcast_to(np.asarray(self.tolerance_rad, float), (len(self),))
+        return FacePlanes(self.centres[index], self.normals[index], self.margin_m, tolerance[index])
+
+    def in_front(self, points: np.ndarray) -> np.ndarray:
+        """(k,) bool: whether each point lies in front of some plane by more than ``margin_m`` plus
+        ``sin`` of that plane's tolerance times its distance from the plane's centre.
+
+        Parameters
+        ----------
+        points : (k, 3) float, metres
+        """
+        from scipy.spatial.distance import cdist
+
+        points = np.asarray(points, float).reshape(-1, 3)
+        if not len(self) or not len(points):
+            return np.zeros(len(points), bool)
+        offsets = np.einsum("ij,ij->i", self.centres, self.normals)
+        sine = np.broadcast_to(np.sin(np.asarray(self.tolerance_rad, float)), (len(self),))
+        return np.concatenate([np.any(x @ self.normals.T - offsets - self.margin_m > sine * cdist(x, self.centres), axis=1)
+                               for x in (points[s:s + _CHUNK] for s in range(0, len(points), _CHUNK))])
+
+
+def supporting_face_planes(contacts: np.ndarray, normals: np.ndarray, radius_m: float = DEFAULT_FACE_RADIUS_M,
+                           angle_rad: float = DEFAULT_FACE_ANGLE_RAD, flatness_m: float = DEFAULT_FLATNESS_M,
+                           min_contacts: int = DEFAULT_MIN_CONTACTS,
+                           tolerance_rad: float = DEFAULT_FACE_TOLERANCE_RAD,
+                           margin_m: float = DEFAULT_FACE_MARGIN_M) -> FacePlanes:
+    """The supporting face planes of contacts (module docstring): one per contact whose face could be
+    fitted and that no contact lies in front of.
+
+    Parameters
+    ----------
+    contacts : (n, 3) float, object frame, metres
+    normals : (n, 3) float, outward unit normals
+    radius_m, angle_rad, flatness_m, min_contacts : float, float, float, int
+        What makes contacts one face.
+    tolerance_rad, margin_m : float
+        What "in front of" means, both for the support test and for :meth:`FacePlanes.in_front`:
+        ``tolerance_rad`` is each plane's smallest tilt allowance; a narrow patch gets
+        ``arctan(2 flatness_m / width)``, its width across its second principal direction.
+    """
+    from scipy.spatial import cKDTree
+
+    for name, value in (("radius_m", radius_m), ("flatness_m", flatness_m), ("margin_m", margin_m)):
+        if not (np.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a positive length, got {value!r}")
+    for name, value in (("angle_rad", angle_rad), ("tolerance_rad", tolerance_rad)):
+        if not (0 <= value < np.pi / 2):
+            raise ValueError(f"{name} must be an angle in [0, pi / 2), got {value!r}")
+    if not (isinstance(min_contacts, (int, np.integer)) and min_contacts >= 3):
+        raise ValueError(f"min_contacts must be a count >= 3 (a plane needs three), got {min_contacts!r}")
+    contacts = np.asarray(contacts, float).reshape(-1, 3)
+    normals = np.asarray(normals, float).reshape(-1, 3)
+    if normals.shape != contacts.shape:
+        raise ValueError(f"normals must be one per contact, shape {contacts.shape}, got {normals.shape}")
+    empty = FacePlanes(np.zeros((0, 3)), np.zeros((0, 3)), margin_m, np.zeros(0))
+    if len(contacts) < min_contacts:
+        return empty
+    centres, fitted, tilts = [], [], []
+    cosine = np.cos(angle_rad)
+    for i, near in enumerate(cKDTree(contacts).query_ball_point(contacts, radius_m)):
+        near = np.asarray(near)
+        face = near[(normals[near] @ normals[i] > cosine)
+                    & (np.abs((contacts[near] - contacts[i]) @ normals[i]) < flatness_m)]
+        if len(face) < min_contacts:
+            continue
+        centre = contacts[face].mean(axis=0)
+        _, spread, axes = np.linalg.svd(contacts[face] - centre, full_matrices=False)
+        if spread[1] < _MIN_SPREAD_RATIO * spread[0]:
+            continue
+        normal = axes[2] * np.sign(axes[2] @ normals[i])
+        if np.max(np.abs((contacts[face] - centre) @ normal)) > flatness_m:
+            continue
+        # a curved patch's least-squares plane tilts by up to its departure from flat over its
+        # half width (on a cylinder's side, towards the axis where the contacts lie unevenly)
+        width = np.ptp((contacts[face] - centre) @ axes[1])
+        centres.append(centre)
+        fitted.append(normal)
+        tilts.append(max(tolerance_rad, float(np.arctan2(2.0 * flatness_m, width))))
+    if not centres:
+        return empty
+    # supporting: judged with the smallest allowance, so that a narrow patch's larger one (which
+    # frees less in front of it) does not also let contacts in front of it pass
+    strict = FacePlanes(np.array(centres), np.array(fitted), margin_m, tolerance_rad)
+    supporting = np.array([not strict[k].in_front(contacts).any() for k in range(len(strict))], bool)
+    return FacePlanes(strict.centres[supporting], strict.normals[supporting], margin_m, np.array(tilts)[supporting])

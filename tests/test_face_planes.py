@@ -1,0 +1,125 @@
+"""Supporting face planes of contacts (reconstruction/face_planes.py, issue 10)."""
+
+import numpy as np
+import pytest
+import trimesh
+
+from reconstruction.face_planes import FacePlanes, supporting_face_planes
+from reconstruction.synthetic_contacts import sample_contacts
+
+HALF = np.array([0.06, 0.04, 0.025])
+
+
+def _box_contacts(n=200, seed=0):
+    box = trimesh.creation.box(extents=2 * HALF)
+    return sample_contacts(box, n, seed=seed)[:2]  # the default sensor noise
+
+
+def test_a_box_gives_its_faces_planes_within_a_few_degrees():
+    points, normals = _box_contacts()
+    planes = supporting_face_planes(points, normals)
+    faces = np.vstack([np.eye(3), -np.eye(3)])
+    nearest = np.argmax(planes.normals @ faces.T, axis=1)
+    angle = np.degrees(np.arccos(np.clip(np.max(planes.normals @ faces.T, axis=1), -1, 1)))
+    # the fitted planes tilt by the contacts' position noise over a patch, well below the 7 deg
+    # mean error of one measured normal and within each plane's own allowance; each lies on its
+    # face within that noise
+    assert np.median(angle) < 1.5
+    assert np.all(np.radians(angle) < planes.tolerance_rad)
+    offset = np.einsum("ij,ij->i", planes.centres, faces[nearest]) - np.tile(HALF, 2)[nearest]
+    assert np.abs(offset).max() < 1e-3
+    assert set(nearest) == set(range(6))  # every face, 7-30 contacts each
+
+
+@pytest.mark.parametrize("shape", ["sphere", "cylinder", "box", "capsule"])
+def test_no_point_of_a_convex_object_lies_in_front_of_its_face_planes(shape):
+    # The property the outside evidence relies on: a convex object lies behind every supporting
+    # plane, curved faces included (their planes, if any, are within the flatness of them).
+    make = {"sphere": lambda: trimesh.creation.icosphere(subdivisions=4, radius=0.1),
+            "cylinder": lambda: trimesh.creation.cylinder(radius=0.05, height=0.12, sections=96),
+            "box": lambda: trimesh.creation.box(extents=2 * HALF),
+            "capsule": lambda: trimesh.creation.capsule(height=0.08, radius=0.03)}[shape]
+    truth = make()
+    surface, _ = trimesh.sample.sample_surface(truth, 20000, seed=1)
+    found = 0
+    for n_contacts in (50, 200, 400):
+        points, normals, _, _ = sample_contacts(truth, n_contacts, seed=n_contacts)
+        planes = supporting_face_planes(points, normals)
+        found += len(planes)
+        assert not planes.in_front(surface).any()
+    if shape in ("box", "cylinder"):
+        assert found > 0  # flat faces (the cylinder's caps) give planes: the check above bites
+
+
+def test_a_concave_floor_is_not_a_supporting_plane():
+    # A tray's inside: a floor with walls in front of it (and the flat bottom underneath). The
+    # bottom supports every contact; the floor does not, so space above the walls stays unjudged.
+    xy = np.array([[x, y] for x in np.linspace(-0.03, 0.03, 7) for y in np.linspace(-0.03, 0.03, 7)])
+    floor = np.column_stack([xy, np.zeros(len(xy))])
+    bottom = np.column_stack([xy, np.full(len(xy), -0.005)])
+    wall = np.array([[s * 0.035, y, z] for s in (-1, 1) for y in np.linspace(-0.03, 0.03, 4)
+                     for z in np.linspace(0.005, 0.025, 3)])
+    points = np.vstack([floor, bottom, wall])
+    normals = np.vstack([np.tile([0.0, 0.0, 1.0], (len(floor), 1)), np.tile([0.0, 0.0, -1.0], (len(bottom), 1)),
+                         np.column_stack([-np.sign(wall[:, 0]), np.zeros(len(wall)), np.zeros(len(wall))])])
+    planes = supporting_face_planes(points, normals)
+    assert len(planes) > 0
+    assert np.all(planes.normals[:, 2] < -0.99)  # the bottom's only
+
+
+def test_in_front_against_its_closed_form():
+    # One plane through the origin facing +z: in front means h - margin > sin(tol) * distance.
+    margin, tolerance = 2e-3, np.radians(5.0)
+    plane = FacePlanes(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]), margin, tolerance)
+    above = margin / (1 - np.sin(tolerance))  # straight above: h - margin = sin(tol) h
+    assert not plane.in_front(np.array([[0.0, 0.0, above - 1e-5]]))[0]
+    assert plane.in_front(np.array([[0.0, 0.0, above + 1e-5]]))[0]
+    d = 0.1  # 100 mm to the side: h - margin = sin(tol) sqrt(d^2 + h^2), solved for h
+    s = np.sin(tolerance)
+    h = (margin + s * np.sqrt(margin ** 2 + (1 - s ** 2) * d ** 2)) / (1 - s ** 2)
+    assert abs(h - margin - s * np.hypot(d, h)) < 1e-9
+    assert not plane.in_front(np.array([[d, 0.0, h - 1e-5]]))[0]
+    assert plane.in_front(np.array([[d, 0.0, h + 1e-5]]))[0]
+    assert not plane.in_front(np.array([[0.0, 0.0, -0.05]]))[0]
+
+
+def test_a_line_of_contacts_gives_no_plane():
+    # Contacts along a ridge agree in normal and lie on a line: the plane's tilt about the line is
+    # unknown, so no plane is fitted.
+    points = np.column_stack([np.linspace(0, 0.04, 9), np.zeros(9), np.zeros(9)])
+    normals = np.tile([0.0, 0.0, 1.0], (9, 1))
+    assert len(supporting_face_planes(points, normals)) == 0
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(radius_m=0.0), "radius_m must be a positive length"),
+    (dict(flatness_m=float("nan")), "flatness_m must be a positive length"),
+    (dict(angle_rad=np.pi / 2), "angle_rad must be an angle in"),
+    (dict(tolerance_rad=-0.1), "tolerance_rad must be an angle in"),
+    (dict(min_contacts=2), "min_contacts must be a count >= 3"),
+])
+def test_bad_settings_are_refused(kwargs, message):
+    points, normals = _box_contacts(n=20)
+    with pytest.raises(ValueError, match=message):
+        supporting_face_planes(points, normals, **kwargs)
+
+
+def test_a_narrow_patch_on_a_bottles_shoulder_is_not_supporting_with_its_cap_in_front():
+    # A patch on a conical shoulder is narrow, so its plane gets a large tilt allowance (about
+    # 24 deg). Judged with that allowance, the contacts on the neck and the cap in front of it
+    # passed, and the plane freed points 7-11 mm inside the bottle's neck (BENCHMARKS.md, issue
+    # 10). The support test keeps the smallest allowance whatever the patch.
+    import objects
+
+    truth = objects.load("generated:bottle/1000").mesh
+    points, normals, _, _ = sample_contacts(truth, 100, seed=102)
+    planes = supporting_face_planes(points, normals)
+    assert np.degrees(planes.tolerance_rad).max() > 10.0  # narrow patches are among them
+    surface, _ = trimesh.sample.sample_surface(truth, 30000, seed=1)
+    assert not planes.in_front(surface).any()
+
+
+def test_normals_must_match_the_contacts():
+    points, normals = _box_contacts(n=20)
+    with pytest.raises(ValueError, match="normals must be one per contact"):
+        supporting_face_planes(points, normals[:3])
