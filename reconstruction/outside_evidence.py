@@ -31,6 +31,13 @@ sphere touched 6 to 15 times had its true surface taken as free and its mesh wen
 8-19 mm; with it, a convex object never loses surface, however few its contacts. A phantom lobe
 past a thin rim lies ahead of the plane of a contact on the far side (a bowl's floor).
 
+Flat faces are known better than any one contact's normal. Where several contacts lie on one
+plane and no contact lies in front of it (a supporting face plane,
+:mod:`reconstruction.face_planes`), a point in front of that plane by more than 2 mm plus
+``sin(5 deg)`` (more for a narrow patch) times its distance is free wherever it lies more than ``min_margin_m`` outside the hull (and its
+foot is enclosed), within the facet's and the local margin too: the lobe a smooth GPIS rounds past
+a wedge's sharp corner or a prism's edge, 4-10 mm outside the hull (BENCHMARKS.md, issue 10).
+
 Where the GPIS mean still puts solid at such a free point, a value row ``f = -d`` (``d`` its
 distance outside the hull) is added with a loose noise, at most one per ``ROW_SPACING_M`` cube,
 and this is repeated a few times, since a lobe pushed back in one place can grow in another.
@@ -46,6 +53,8 @@ not a mesh operation.
 from __future__ import annotations
 
 import numpy as np
+
+from reconstruction.face_planes import DEFAULT_FACE_TOLERANCE_RAD, supporting_face_planes
 
 #: Free space starts this fraction of a hull facet's circumradius outside the facet ...
 DEFAULT_FACET_FRACTION = 0.75
@@ -83,7 +92,8 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
                           tangent_margin_m: float | None = DEFAULT_TANGENT_MARGIN_M,
                           normal_tolerance_rad: float = DEFAULT_NORMAL_TOLERANCE_RAD,
                           local_neighbours: int | None = DEFAULT_LOCAL_NEIGHBOURS,
-                          min_local_margin_m: float = DEFAULT_MIN_LOCAL_MARGIN_M) -> tuple[np.ndarray, np.ndarray]:
+                          min_local_margin_m: float = DEFAULT_MIN_LOCAL_MARGIN_M,
+                          face_tolerance_rad: float | None = DEFAULT_FACE_TOLERANCE_RAD) -> tuple[np.ndarray, np.ndarray]:
     """Grid points of ``box`` taken as free space by the hull rule (module docstring).
 
     Parameters
@@ -110,6 +120,9 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
         tangent-plane test: the facet's circumradius alone.
     min_local_margin_m : float
         The local margin's floor, metres.
+    face_tolerance_rad : float or None
+        The supporting face planes' tilt allowance (:mod:`reconstruction.face_planes`); None, or no
+        normals or tangent-plane test: no face planes.
 
     Returns
     -------
@@ -133,6 +146,8 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
         raise ValueError(f"local_neighbours must be None or a count >= 1, got {local_neighbours!r}")
     if not (np.isfinite(min_local_margin_m) and min_local_margin_m >= 0):
         raise ValueError(f"min_local_margin_m must be a length >= 0, got {min_local_margin_m!r}")
+    if face_tolerance_rad is not None and not (0 <= face_tolerance_rad < np.pi / 2):
+        raise ValueError(f"face_tolerance_rad must be None or an angle in [0, pi / 2), got {face_tolerance_rad!r}")
     contacts = np.asarray(contacts, float)
     if normals is not None:
         normals = np.asarray(normals, float)
@@ -147,6 +162,10 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
     corners = contacts[hull.simplices]
     circumradius = np.linalg.norm(corners - corners.mean(axis=1, keepdims=True), axis=2).max(axis=1)
     tree = cKDTree(contacts)
+    faces = None
+    if face_tolerance_rad is not None and normals is not None and tangent_margin_m is not None:
+        faces = supporting_face_planes(contacts, normals, tolerance_rad=face_tolerance_rad)
+        faces = faces if len(faces) else None
     lo, hi = (np.asarray(b, float) for b in box)
     spacing = max(GRID_SPACING_M, float(np.max(hi - lo)) / GRID_CELLS)
     axes = [_cell_centres(a, b, spacing) for a, b in zip(lo, hi)]
@@ -168,11 +187,20 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
                 k = min(int(local_neighbours), len(contacts))
                 nearest, _ = tree.query(foot[maybe], k=k)
                 free[maybe] = outside[maybe] > facet_fraction * nearest.reshape(len(maybe), k)[:, -1]
-        if max_open_angle_rad is not None and free.any():
-            free[free] = _enclosed(foot[free], planes[facet[free], :3], contacts, tree, max_open_angle_rad)
+        # in front of a supporting face plane: free within the facet's and the local margin too,
+        # without the single contacts' looser tangent test
+        by_face = np.zeros(len(x), bool)
+        if faces is not None and not free.all():
+            by_face[~free] = faces.in_front(x[~free])
+        if max_open_angle_rad is not None and (free | by_face).any():
+            either = free | by_face
+            enclosed = _enclosed(foot[either], planes[facet[either], :3], contacts, tree, max_open_angle_rad)
+            free[either] &= enclosed
+            by_face[either] &= enclosed
         if normals is not None and tangent_margin_m is not None and free.any():
             free[free] = _ahead_of_a_tangent_plane(x[free], contacts, normals, tangent_margin_m,
                                                    normal_tolerance_rad)
+        free |= by_face
         points.append(x[free])
         distance.append(outside[free])
     if not points:
@@ -224,7 +252,8 @@ def add_outside_evidence(gpis, facet_fraction: float = DEFAULT_FACET_FRACTION,
                          tangent_margin_m: float | None = DEFAULT_TANGENT_MARGIN_M,
                          normal_tolerance_rad: float = DEFAULT_NORMAL_TOLERANCE_RAD,
                          local_neighbours: int | None = DEFAULT_LOCAL_NEIGHBOURS,
-                         min_local_margin_m: float = DEFAULT_MIN_LOCAL_MARGIN_M) -> int:
+                         min_local_margin_m: float = DEFAULT_MIN_LOCAL_MARGIN_M,
+                         face_tolerance_rad: float | None = DEFAULT_FACE_TOLERANCE_RAD) -> int:
     """Add value rows where the GPIS puts solid in the hull rule's free space (module docstring).
 
     Parameters
@@ -234,7 +263,7 @@ def add_outside_evidence(gpis, facet_fraction: float = DEFAULT_FACET_FRACTION,
         through :meth:`GPIS.add_values`.
     facet_fraction, min_margin_m, max_open_angle_rad, tangent_margin_m, normal_tolerance_rad : float or None
         See :func:`free_space_candidates` (the tangent test uses the GPIS's contact normals).
-    local_neighbours, min_local_margin_m : int or None, float
+    local_neighbours, min_local_margin_m, face_tolerance_rad : int or None, float, float or None
         See :func:`free_space_candidates`.
     noise_m : float
         Standard deviation of the added rows, metres.
@@ -251,7 +280,7 @@ def add_outside_evidence(gpis, facet_fraction: float = DEFAULT_FACET_FRACTION,
     points, distance = free_space_candidates(gpis.contact_points, gpis.region if box is None else box,
                                              facet_fraction, min_margin_m, max_open_angle_rad,
                                              gpis.contact_normals, tangent_margin_m, normal_tolerance_rad,
-                                             local_neighbours, min_local_margin_m)
+                                             local_neighbours, min_local_margin_m, face_tolerance_rad)
     added = 0
     for _ in range(MAX_ROUNDS):
         if not len(points):

@@ -115,7 +115,9 @@ EVIDENCE_VARIANTS = {"outside-evidence-0.25": dict(facet_fraction=0.25),
                      "outside-evidence-tilt-0": dict(normal_tolerance_rad=0.0),
                      "outside-evidence-tilt-25": dict(normal_tolerance_rad=float(np.radians(25.0))),
                      # the margin from the facet's size alone (the default before the local gaps)
-                     "outside-evidence-facet-only": dict(local_neighbours=None)}
+                     "outside-evidence-facet-only": dict(local_neighbours=None),
+                     # without the supporting face planes (the default before them)
+                     "outside-evidence-no-faces": dict(face_tolerance_rad=None)}
 METHODS.update({name: _current_default for name in EVIDENCE_VARIANTS})
 MESH_OPTIONS.update({name: {"outside_evidence": False} for name in EVIDENCE_VARIANTS})  # rows already added
 

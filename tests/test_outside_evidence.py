@@ -137,7 +137,9 @@ def test_a_densely_touched_face_under_a_large_facet_sets_the_margin_by_its_own_g
                           np.column_stack([grid, np.zeros(len(grid))])])
     normals = np.repeat([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]], len(grid), axis=0)
     box = ((-0.02, -0.02, -0.02), (0.12, 0.12, 0.17))
-    common = dict(facet_fraction=fraction, min_margin_m=0.0, max_open_angle_rad=None, normals=normals)
+    # (the face planes, which would free more over this flat face, are tested on their own below)
+    common = dict(facet_fraction=fraction, min_margin_m=0.0, max_open_angle_rad=None, normals=normals,
+                  face_tolerance_rad=None)
     over_face = lambda p: np.all((p[:, :2] > 0.0125) & (p[:, :2] < 0.0875), axis=1) & (p[:, 2] > 0.1)  # noqa: E731
     local, height = free_space_candidates(contacts, box, **common)
     facet_only, _ = free_space_candidates(contacts, box, **common, local_neighbours=None)
@@ -259,3 +261,32 @@ def test_noise_must_be_positive(lid):
     _, gp = lid
     with pytest.raises(ValueError, match="noise_m must be a positive length"):
         add_outside_evidence(gp, noise_m=0.0)
+
+
+FACE_BOX_HALF = np.array([0.06, 0.04, 0.025])
+
+
+def _face_box_contacts(n, seed):
+    return sample_contacts(trimesh.creation.box(extents=2 * FACE_BOX_HALF), n, seed=seed)[:2]
+
+
+def test_face_planes_free_space_the_local_floor_kept_above_a_flat_face():
+    # A box touched 300 times: the space 4-9 mm above its top face (outside the hull by more than
+    # the 4 mm minimum, under the local margin's 10 mm floor) is free only with the face planes,
+    # and none of the box's inside is.
+    points, normals = _face_box_contacts(n=300, seed=3)
+    region = (-FACE_BOX_HALF - 0.03, FACE_BOX_HALF + 0.03)
+    with_faces, _ = free_space_candidates(points, region, normals=normals)
+    without, _ = free_space_candidates(points, region, normals=normals, face_tolerance_rad=None)
+    half = FACE_BOX_HALF
+    band = lambda p: (np.all(np.abs(p[:, :2]) < half[:2] - 0.01, axis=1)  # noqa: E731
+                      & (p[:, 2] > half[2] + 0.004) & (p[:, 2] < half[2] + 0.009))
+    assert band(with_faces).sum() > 0 and band(without).sum() == 0
+    assert np.all(np.min(half - np.abs(with_faces), axis=1) < 0)  # all outside the box
+
+
+def test_bad_face_tolerance_is_refused():
+    points, normals = _face_box_contacts(n=20, seed=0)
+    with pytest.raises(ValueError, match="face_tolerance_rad must be None or an angle"):
+        free_space_candidates(points, (-FACE_BOX_HALF - 0.03, FACE_BOX_HALF + 0.03), normals=normals,
+                              face_tolerance_rad=2.0)
