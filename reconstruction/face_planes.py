@@ -13,11 +13,12 @@ Such a plane is *supporting* when no contact at all lies in front of it by more 
 plus ``sin(tolerance_rad)`` times its distance from the face. A convex object lies behind each of
 its supporting planes, so space in front of one is free: past a sharp corner of a wedge or a prism,
 beyond a flat bottom. A concave face is not supporting (a tray's floor has its walls in front of
-it), nor is a face of one part of a non-convex object that has a touched part in front of it (the
-L tool's grip under its barrel). A doubly curved surface of radius under about 0.2 m departs from
-a plane by more than ``flatness_m`` within 25 mm and gives no plane. A cylinder's side can give one
-along its axis, tilted by up to ``flatness_m`` over the patch's half width where the contacts lie
-unevenly across it; each plane's tilt allowance is at least that, so a narrow patch frees little.
+it), nor is a face of one part of a non-convex object that has a touched part in front of it (one
+arm of an L). A curved surface gives a plane only where several contacts crowd into the narrow
+patch of it that stays within ``flatness_m`` of one tangent plane (12 mm across on a sphere of 50
+mm radius, a strip along a cylinder's side). Such a plane can tilt by up to ``flatness_m`` over the
+patch's half width where the contacts lie unevenly across it, so each plane's tilt allowance is at
+least that: a narrow patch frees little.
 
 Written here rather than taken from a library: a statement about measured contacts and normals,
 not a mesh operation.
