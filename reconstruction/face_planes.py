@@ -72,12 +72,6 @@ class FacePlanes:
     def __len__(self) -> int:
         return len(self.centres)
 
-    def __getitem__(self, index) -> "FacePlanes":
-        """The planes at ``index`` (an int, a slice, an index array or a boolean mask)."""
-        index = np.atleast_1d(np.arange(len(self))[index])
-        tolerance = np.broadcast_to(np.asarray(self.tolerance_rad, float), (len(self),))
-        return FacePlanes(self.centres[index], self.normals[index], self.margin_m, tolerance[index])
-
     def in_front(self, points: np.ndarray) -> np.ndarray:
         """(k,) bool: whether each point lies in front of some plane by more than ``margin_m`` plus
         ``sin`` of that plane's tolerance times its distance from the plane's centre.
@@ -86,14 +80,18 @@ class FacePlanes:
         ----------
         points : (k, 3) float, metres
         """
+        return self.in_front_of_each(points).any(axis=1)
+
+    def in_front_of_each(self, points: np.ndarray) -> np.ndarray:
+        """(k, m) bool: whether each point lies in front of each plane (see :meth:`in_front`)."""
         from scipy.spatial.distance import cdist
 
         points = np.asarray(points, float).reshape(-1, 3)
         if not len(self) or not len(points):
-            return np.zeros(len(points), bool)
+            return np.zeros((len(points), len(self)), bool)
         offsets = np.einsum("ij,ij->i", self.centres, self.normals)
         sine = np.broadcast_to(np.sin(np.asarray(self.tolerance_rad, float)), (len(self),))
-        return np.concatenate([np.any(x @ self.normals.T - offsets - self.margin_m > sine * cdist(x, self.centres), axis=1)
+        return np.concatenate([x @ self.normals.T - offsets - self.margin_m > sine * cdist(x, self.centres)
                                for x in (points[s:s + _CHUNK] for s in range(0, len(points), _CHUNK))])
 
 
@@ -159,5 +157,5 @@ def supporting_face_planes(contacts: np.ndarray, normals: np.ndarray, radius_m: 
     # supporting: judged with the smallest allowance, so that a narrow patch's larger one (which
     # frees less in front of it) does not also let contacts in front of it pass
     strict = FacePlanes(np.array(centres), np.array(fitted), margin_m, tolerance_rad)
-    supporting = np.array([not strict[k].in_front(contacts).any() for k in range(len(strict))], bool)
+    supporting = ~strict.in_front_of_each(contacts).any(axis=0)
     return FacePlanes(strict.centres[supporting], strict.normals[supporting], margin_m, np.array(tilts)[supporting])

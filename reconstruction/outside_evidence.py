@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from reconstruction.face_planes import DEFAULT_FACE_TOLERANCE_RAD, supporting_face_planes
+from reconstruction.face_planes import DEFAULT_FACE_TOLERANCE_RAD, FacePlanes, supporting_face_planes
 
 #: Free space starts this fraction of a hull facet's circumradius outside the facet ...
 DEFAULT_FACET_FRACTION = 0.75
@@ -236,13 +236,8 @@ def _ahead_of_a_tangent_plane(points: np.ndarray, contacts: np.ndarray, normals:
                               margin_m: float, tolerance_rad: float) -> np.ndarray:
     """Whether each point lies ahead of some contact's tangent plane by more than ``margin_m``,
     with the plane tilted by up to ``tolerance_rad`` either way: outside the intersection of the
-    contacts' tangent half-spaces, which holds a convex object."""
-    from scipy.spatial.distance import cdist
-
-    offsets = np.einsum("ij,ij->i", contacts, normals)
-    sine = np.sin(tolerance_rad)
-    return np.concatenate([np.any(x @ normals.T - offsets - margin_m > sine * cdist(x, contacts), axis=1)
-                           for x in (points[s:s + 2000] for s in range(0, len(points), 2000))])
+    contacts' tangent half-spaces, which holds a convex object. (Each contact as a plane of its own.)"""
+    return FacePlanes(contacts, normals, margin_m, tolerance_rad).in_front(points)
 
 
 def add_outside_evidence(gpis, facet_fraction: float = DEFAULT_FACET_FRACTION,
