@@ -34,9 +34,10 @@ past a thin rim lies ahead of the plane of a contact on the far side (a bowl's f
 Flat faces are known better than any one contact's normal. Where several contacts lie on one
 plane and no contact lies in front of it (a supporting face plane,
 :mod:`reconstruction.face_planes`), a point in front of that plane by more than 2 mm plus
-``sin(5 deg)`` (more for a narrow patch) times its distance is free wherever it lies more than ``min_margin_m`` outside the hull (and its
-foot is enclosed), within the facet's and the local margin too: the lobe a smooth GPIS rounds past
-a wedge's sharp corner or a prism's edge, 4-10 mm outside the hull (BENCHMARKS.md, issue 10).
+``sin(5 deg)`` (more for a narrow patch) times its distance is free wherever it lies more than
+``min_margin_m`` outside the hull and its foot is enclosed, within the facet's and the local
+margin too: the lobe a smooth GPIS rounds past a wedge's sharp corner or a prism's edge, 4-10 mm
+outside the hull (BENCHMARKS.md, issue 10).
 
 Where the GPIS mean still puts solid at such a free point, a value row ``f = -d`` (``d`` its
 distance outside the hull) is added with a loose noise, at most one per ``ROW_SPACING_M`` cube,
