@@ -8,12 +8,15 @@ OUT ?= results
 
 install: $(VENV)/.installed
 
+# A failed install names the disk space too: a full disk fails deep inside pip (Errno 28).
+INSTALL_FAILED = { echo "make: installing into $(VENV) failed (pip's message above); it needs about 3 GB of disk and $$(df -h $(dir $(abspath $(VENV))) | awk 'NR==2 {print $$4}') is free there" >&2; exit 1; }
+
 $(VENV)/.installed: setup.cfg pyproject.toml
 	python3 -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet --upgrade pip || $(INSTALL_FAILED)
 	# torch first and pinned: the CPU build (a range would pull a multi-GB CUDA build).
-	$(PY) -m pip install --quiet torch==2.13.0
-	$(PY) -m pip install --quiet -e '.[test,hardware,ray,viz]'
+	$(PY) -m pip install --quiet torch==2.13.0 || $(INSTALL_FAILED)
+	$(PY) -m pip install --quiet -e '.[test,hardware,ray,viz]' || $(INSTALL_FAILED)
 	touch $@
 
 # A fresh folder per run (results/explore-YYYYMMDD-HHMMSS): a recorded run is never overwritten,
