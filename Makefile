@@ -9,7 +9,7 @@ OUT ?= results
 install: $(VENV)/.installed
 
 # A failed install names the disk space too: a full disk fails deep inside pip (Errno 28).
-INSTALL_FAILED = { echo "make: installing into $(VENV) failed (pip's message above); it needs about 3 GB of disk and $$(df -h $(dir $(abspath $(VENV))) | awk 'NR==2 {print $$4}') is free there" >&2; exit 1; }
+INSTALL_FAILED = { echo "make: installing into $(VENV) failed (pip's message above); it needs about 3 GB of disk and $$(df -h $(dir $(abspath $(VENV))) | awk 'NR==2 {print $$4}') is free there: free some, or give VENV=DIR on a larger disk" >&2; exit 1; }
 
 $(VENV)/.installed: setup.cfg pyproject.toml
 	python3 -m venv $(VENV)
