@@ -10,13 +10,11 @@ position noise over the patch's span: about 1 deg for sampled contacts, 0.2 mm a
 over 20 mm.
 
 Such a plane is *supporting* when no contact at all lies in front of it by more than ``margin_m``
-plus ``sin(tolerance_rad)`` times its distance from the face, and no contact of another face (its
-normal more than ``angle_rad`` from the plane's) by more than ``margin_m``: the distance term
-allows for the plane's tilt, which moves its own face, not a part rising in front of it (a lid's
-knob 50 mm away, touched on its side only). A convex object lies behind each of its supporting
-planes, so space in front of one is free: past a sharp corner of a wedge or a prism, beyond a flat
-bottom. A concave face is not supporting (a tray's floor has its walls in front of it), nor is a
-face of one part of a non-convex object that has a touched part in front of it (one arm of an L). A curved surface gives a plane only where several contacts crowd into the narrow
+plus ``sin(tolerance_rad)`` times its distance from the face. A convex object lies behind each of
+its supporting planes, so space in front of one is free: past a sharp corner of a wedge or a prism,
+beyond a flat bottom. A concave face is not supporting (a tray's floor has its walls in front of
+it), nor is a face of one part of a non-convex object that has a touched part in front of it (one
+arm of an L). A curved surface gives a plane only where several contacts crowd into the narrow
 patch of it that stays within ``flatness_m`` of one tangent plane (12 mm across on a sphere of 50
 mm radius, a strip along a cylinder's side). Such a plane can tilt by up to ``flatness_m`` over the
 patch's half width where the contacts lie unevenly across it, so each plane's tilt allowance is at
@@ -159,10 +157,5 @@ def supporting_face_planes(contacts: np.ndarray, normals: np.ndarray, radius_m: 
     # supporting: judged with the smallest allowance, so that a narrow patch's larger one (which
     # frees less in front of it) does not also let contacts in front of it pass
     strict = FacePlanes(np.array(centres), np.array(fitted), margin_m, tolerance_rad)
-    in_front = strict.in_front_of_each(contacts)
-    # the tilt allowance is for contacts of the plane's own face; one of another face in front of
-    # it by more than the margin is a part rising there (a lid's knob), however far away
-    height = contacts @ strict.normals.T - np.einsum("ij,ij->i", strict.centres, strict.normals)
-    rising = (normals @ strict.normals.T < cosine) & (height > margin_m)
-    supporting = ~(in_front | rising).any(axis=0)
+    supporting = ~strict.in_front_of_each(contacts).any(axis=0)
     return FacePlanes(strict.centres[supporting], strict.normals[supporting], margin_m, np.array(tilts)[supporting])
