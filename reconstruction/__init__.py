@@ -13,6 +13,9 @@ Public API:
   convex hull and tangent planes, or in front of a flat face no contact lies in front of:
   :func:`supporting_face_planes` -> :class:`FacePlanes`; ``GPIS.mesh()`` applies it to a copy by
   default);
+* :func:`find_symmetry` (-> :class:`Symmetry`, settings :class:`SymmetrySettings`): mirror planes
+  or an axis of revolution the contacts support, whose images of the contacts fill sampling gaps
+  (``GPIS.mesh(symmetry=True)``);
 * metrics: :func:`surface_error` (-> :class:`SurfaceError`), :func:`shape_metrics`,
   :func:`point_cloud_metrics` (-> :class:`ShapeMetrics`: Chamfer, F-score, normal consistency),
   :func:`contact_coverage`, :func:`recess_error` (-> :class:`RecessError`: the insides against the
@@ -41,6 +44,9 @@ _LAZY = {
     "add_outside_evidence": "reconstruction.outside_evidence",
     "FacePlanes": "reconstruction.face_planes",
     "supporting_face_planes": "reconstruction.face_planes",
+    "Symmetry": "reconstruction.symmetry",
+    "SymmetrySettings": "reconstruction.symmetry",
+    "find_symmetry": "reconstruction.symmetry",
     "SurfaceError": "reconstruction.metrics",
     "Topology": "reconstruction.topology",
     "surface_topology": "reconstruction.topology",

@@ -23,7 +23,7 @@ import numpy as np
 import scipy.linalg
 import torch
 
-from reconstruction.cholesky import GrowingCholesky
+from reconstruction.cholesky import GrowingCholesky, NotPositiveDefiniteError
 from reconstruction.kernels import Kernel, QuadraticTrend, kernel_names, make_kernel
 
 #: Names of the registered kernels (:data:`reconstruction.kernels.KERNELS`).
@@ -357,7 +357,7 @@ class GPIS:
         return VarianceTracker(self, candidates)
 
     def mesh(self, bounds: Sequence[Sequence[float]] | None = None, resolution: int = 64,
-             max_std_m: float | None = None, outside_evidence: bool = True):
+             max_std_m: float | None = None, outside_evidence: bool = True, symmetry=False):
         """The mean surface (0-level set) as a ``trimesh.Trimesh`` with outward normals.
 
         Parameters
@@ -377,17 +377,49 @@ class GPIS:
             (:mod:`reconstruction.outside_evidence`): removes phantom lobes past sparse rims, and
             leaves a convex object's surface alone however few its contacts (BENCHMARKS.md,
             issue 10). Only with normals; this GPIS is not changed. False: the plain mean.
+        symmetry : bool or Symmetry
+            True: mesh a copy that also observes the contacts' images under the mirror planes or
+            the axis of revolution the contacts support (:meth:`symmetry`; none found: no
+            change); a :class:`reconstruction.symmetry.Symmetry`: under that one. Only with
+            normals; this GPIS is not changed. False (default): no images.
         """
         from reconstruction.confidence import mean_surface
 
         self._require_fit()
         model = self
+        if symmetry is not False and self.use_normals:
+            model = self._with_symmetric_images(self.symmetry() if symmetry is True else symmetry)
         if outside_evidence and self.use_normals:
             from reconstruction.outside_evidence import add_outside_evidence
 
-            model = copy.deepcopy(self)
+            model = copy.deepcopy(self) if model is self else model
             add_outside_evidence(model)
         return mean_surface(model, self._region if bounds is None else _check_bounds(bounds), resolution, max_std_m)
+
+    def symmetry(self):
+        """The mirror planes or axis of revolution this GPIS's contacts support
+        (:func:`reconstruction.symmetry.find_symmetry`, judged with this GPIS's mean)."""
+        from reconstruction.symmetry import Symmetry, find_symmetry
+
+        if not (self.use_normals and self.n_contacts):
+            return Symmetry()
+        return find_symmetry(self.contact_points, self.contact_normals, self)
+
+    def _with_symmetric_images(self, found) -> "GPIS":
+        """A copy observing the contacts' images under ``found`` as contacts, or this GPIS if none."""
+        points, normals = self.contact_points, self.contact_normals
+        images, image_normals = found.images(points, normals)
+        lo, hi = self.region
+        inside = np.all((images > lo) & (images < hi), axis=1)
+        if not inside.any():
+            return self
+        model = copy.deepcopy(self)
+        try:
+            model.add(images[inside], image_normals[inside])
+        except NotPositiveDefiniteError as exc:
+            warnings.warn(f"the symmetric images were left out of the mesh: {exc}")
+            return self
+        return model
 
     # ------------------------------------------------------------------ internals
     def _joint(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:

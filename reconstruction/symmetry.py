@@ -1,0 +1,384 @@
+"""Mirror planes and an axis of revolution of an unknown object, found from its contacts (issue 10).
+
+Most household objects are symmetric: cups, bowls, plates, bottles and lids are surfaces of
+revolution, boxes, trays and tools have mirror planes. A symmetry maps every contact to another
+point of the surface (its *image*), so a symmetry found from the contacts fills the sampling gaps
+where the GPIS otherwise grows phantom surface (BENCHMARKS.md, "Symmetry found from the
+contacts"). Nothing is assumed about the object's pose: planes and axes are searched in every
+direction.
+
+A candidate transform ``x -> M x + t`` is judged by the images of all contacts:
+
+* *consistent*: an image lies within ``match_radius_m`` of a contact whose normal agrees with the
+  image's normal (within ``normal_cone_rad``) and within ``plane_tolerance_m`` of that contact's
+  tangent plane;
+* *inconsistent*: such a contact is near but its tangent plane is not (a testable image that fails);
+* *outside*: the image lies more than ``hull_margin_m`` outside the contacts' convex hull;
+* *free*: the GPIS mean at the image is deeper than ``free_depth_m`` in free space or in solid
+  (a mug's handle turned about the cup's axis lands in free space).
+
+Accepted when at least ``min_consistent`` of the images are consistent, at most
+``max_inconsistent`` are inconsistent and ``min_consistent_share`` of the testable ones are
+consistent, and at most ``max_outside`` / ``max_free`` lie outside / in free space. The defaults
+were chosen on the generated tuning split (BENCHMARKS.md).
+
+Search. An axis of revolution first: every normal line of a surface of revolution meets its axis,
+so the axis is fitted to the contacts' normal lines (robust least squares over a hemisphere of
+directions), then refined on the images of rotations by 37, 90 and 180 deg, and accepted by the
+images of 37 and 90 deg turns. Otherwise mirror planes: a hemisphere of plane normals through the
+contacts' centroid, the best ``starts`` refined (Nelder-Mead on a soft score, then a finer one),
+up to three accepted planes at least 80 deg apart; two accepted planes whose intersection is an
+axis of revolution (images of a 37 deg turn accepted) give the revolution too.
+
+Written here rather than taken from a library: the symmetry detectors of the mesh libraries
+(``trimesh.Trimesh.symmetry``) work on a finished, exact mesh; this works on 50-400 noisy oriented
+points and must say no on an object that is not symmetric.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize
+from scipy.spatial import ConvexHull, cKDTree
+
+#: A rigid map ``x -> M @ x + t``: (M (3, 3), t (3,)), object frame, metres.
+Transform = tuple[np.ndarray, np.ndarray]
+
+
+@dataclass(frozen=True)
+class SymmetrySettings:
+    """How symmetries are searched and judged (lengths in metres, angles in radians)."""
+
+    match_radius_m: float = 0.008
+    coarse_tolerance_m: float = 5e-3
+    plane_tolerance_m: float = 1.5e-3
+    fine_tolerance_m: float = 0.7e-3
+    normal_cone_rad: float = float(np.radians(30.0))
+    min_consistent: float = 0.1
+    max_inconsistent: float = 0.05
+    min_consistent_share: float = 0.97
+    max_outside: float = 0.1
+    hull_margin_m: float = 5e-3
+    max_free: float = 0.02
+    free_depth_m: float = 4e-3
+    directions: int = 400
+    starts: int = 12
+    rotations: int = 8
+    min_image_gap_m: float = 3e-3
+    max_images: int = 1000
+    min_contacts: int = 20
+
+
+@dataclass(frozen=True)
+class Symmetry:
+    """What was found: the transforms (identity left out), the accepted mirror planes and the axis.
+
+    Attributes
+    ----------
+    transforms : tuple of (M (3, 3), t (3,))
+        The symmetry group's elements other than the identity, ``x -> M x + t``, object frame.
+    planes : tuple of (u (3,), d)
+        Accepted mirror planes ``u . x = d`` (unit normal, offset in metres).
+    axis : (point (3,), direction (3,)) or None
+        The axis of revolution, metres / unit vector; None if not a surface of revolution.
+    """
+
+    transforms: tuple[Transform, ...] = ()
+    planes: tuple[tuple[np.ndarray, float], ...] = ()
+    axis: tuple[np.ndarray, np.ndarray] | None = None
+
+    @property
+    def kind(self) -> str:
+        """``"revolution"``, ``"mirror"`` (one or more planes) or ``"none"``."""
+        if self.axis is not None:
+            return "revolution"
+        return "mirror" if self.planes else "none"
+
+    def images(self, points: np.ndarray, normals: np.ndarray,
+               settings: SymmetrySettings = SymmetrySettings()) -> tuple[np.ndarray, np.ndarray]:
+        """Images of the contacts under every transform, away from the contacts and each other.
+
+        Parameters
+        ----------
+        points : (n, 3) float, object frame, metres; normals : (n, 3) float, outward unit normals.
+
+        Returns
+        -------
+        image_points : (k, 3) float; image_normals : (k, 3) float. An image closer than
+        ``min_image_gap_m`` to a contact or to an image kept before it is left out (it adds nothing
+        a contact does not say); at most ``max_images`` are kept (an even, seeded subsample).
+        """
+        points, normals = np.asarray(points, float), np.asarray(normals, float)
+        if not self.transforms or len(points) == 0:
+            return np.zeros((0, 3)), np.zeros((0, 3))
+        all_points = np.vstack([points] + [points @ m.T + t for m, t in self.transforms])
+        all_normals = np.vstack([normals] + [normals @ m.T for m, _ in self.transforms])
+        tree = cKDTree(all_points)
+        taken = np.zeros(len(all_points), bool)
+        taken[:len(points)] = True
+        for i in range(len(points), len(all_points)):
+            if not any(taken[j] for j in tree.query_ball_point(all_points[i], settings.min_image_gap_m)):
+                taken[i] = True
+        taken[:len(points)] = False
+        image_points, image_normals = all_points[taken], all_normals[taken]
+        if len(image_points) > settings.max_images:
+            keep = np.sort(np.random.default_rng(0).choice(len(image_points), settings.max_images, replace=False))
+            image_points, image_normals = image_points[keep], image_normals[keep]
+        return image_points, image_normals
+
+
+def reflection(normal: np.ndarray, offset_m: float) -> Transform:
+    """The mirror across the plane ``normal . x = offset_m`` (normal a unit vector)."""
+    u = np.asarray(normal, float)
+    return np.eye(3) - 2.0 * np.outer(u, u), 2.0 * offset_m * u
+
+
+def rotation(direction: np.ndarray, point_m: np.ndarray, angle_rad: float) -> Transform:
+    """The turn by ``angle_rad`` about the axis through ``point_m`` along ``direction``."""
+    v = np.asarray(direction, float) / np.linalg.norm(direction)
+    k = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    r = np.eye(3) + np.sin(angle_rad) * k + (1.0 - np.cos(angle_rad)) * k @ k
+    return r, np.asarray(point_m, float) - r @ point_m
+
+
+def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
+                  settings: SymmetrySettings = SymmetrySettings()) -> Symmetry:
+    """The symmetry of the object the contacts lie on, or ``Symmetry()`` if none is supported.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Contact positions, object frame, metres.
+    normals : (n, 3) float
+        Outward unit normals at the contacts.
+    gpis : GPIS, optional
+        The contacts' GPIS: an image its mean puts deep in free space or in solid counts against a
+        candidate (without it, only the contacts and their hull judge).
+    """
+    points, normals = np.asarray(points, float), np.asarray(normals, float)
+    if len(points) < settings.min_contacts:
+        return Symmetry()
+    normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    judge = _ImageJudge(points, normals, gpis, settings)
+    if not judge.usable:
+        return Symmetry()
+    centre = points.mean(0)
+
+    direction, point = _fit_axis(points, normals)
+    if direction is not None:
+        direction, point = _refine_axis(judge, direction, point)
+        if all(judge.accepts(rotation(direction, point, np.radians(a))) for a in (37.0, 90.0)):
+            return _revolution(judge, direction, point, centre, settings)
+
+    planes = _mirror_planes(judge, centre, settings)
+    if len(planes) >= 2:
+        (u1, d1), (u2, d2) = planes[:2]
+        v = np.cross(u1, u2)
+        v /= np.linalg.norm(v)
+        point = np.linalg.solve(np.vstack([u1, u2, v]), [d1, d2, v @ centre])
+        if judge.accepts(rotation(v, point, np.radians(37.0))):
+            turns = [rotation(v, point, 2 * np.pi * k / settings.rotations) for k in range(1, settings.rotations)]
+            along = [reflection(u, d) for u, d in planes if abs(u @ v) < 0.05][:1]
+            across = [reflection(u, d) for u, d in planes if abs(u @ v) > 0.995][:1]
+            group = list(turns)
+            for m, t in along:
+                group += [(m, t)] + [(m @ r, m @ s + t) for r, s in turns]
+            for m, t in across:
+                group = group + [(m, t)] + [(m @ a, m @ b + t) for a, b in group]
+            return Symmetry(tuple(group), tuple(planes), (point, v))
+    group = [reflection(u, d) for u, d in planes]
+    for a in range(len(planes)):
+        for b in range(a + 1, len(planes)):
+            if abs(planes[a][0] @ planes[b][0]) < np.cos(np.radians(88.0)):
+                (ma, ta), (mb, tb) = group[a], group[b]
+                group.append((ma @ mb, ma @ tb + ta))
+    if len(planes) == 3 and len(group) == 6:
+        (ma, ta), (mb, tb), (mc, tc) = group[:3]
+        group.append((ma @ mb @ mc, ma @ (mb @ tc + tb) + ta))
+    return Symmetry(tuple(group), tuple(planes), None)
+
+
+class _ImageJudge:
+    """Scores a transform by where the contacts' images land (module docstring)."""
+
+    def __init__(self, points, normals, gpis, settings: SymmetrySettings):
+        self.points, self.normals, self.gpis, self.s = points, normals, gpis, settings
+        self.tree = cKDTree(points)
+        self.cos_cone = np.cos(settings.normal_cone_rad)
+        try:
+            self.hull = ConvexHull(points).equations
+            self.usable = True
+        except Exception:  # flat or degenerate contact sets: nothing to judge by
+            self.hull, self.usable = None, False
+
+    def _residuals(self, transform: Transform, neighbours: int = 4):
+        """(n,) distance of each image to the tangent plane of the best agreeing contact within
+        the match radius (inf: none near), and (n,) its distance outside the hull."""
+        m, t = transform
+        q, qn = self.points @ m.T + t, self.normals @ m.T
+        dist, idx = self.tree.query(q, k=neighbours, distance_upper_bound=self.s.match_radius_m)
+        residual = np.full(len(q), np.inf)
+        for j in range(neighbours):
+            near = np.isfinite(dist[:, j])
+            i = np.where(near, idx[:, j], 0)
+            agrees = near & (np.einsum("ij,ij->i", self.normals[i], qn) > self.cos_cone)
+            off_plane = np.abs(np.einsum("ij,ij->i", q - self.points[i], self.normals[i]))
+            residual = np.where(agrees, np.minimum(residual, off_plane), residual)
+        outside = np.max(q @ self.hull[:, :3].T + self.hull[:, 3], axis=1)
+        return q, residual, outside
+
+    def soft_score(self, transform: Transform, tolerance_m: float | None = None) -> float:
+        """Smooth score for the search: Gaussian agreement minus inconsistent and outside images."""
+        tolerance = tolerance_m or self.s.plane_tolerance_m
+        _, residual, outside = self._residuals(transform)
+        testable = np.isfinite(residual)
+        agreement = np.where(testable, np.exp(-0.5 * (np.where(testable, residual, 0.0) / tolerance) ** 2), 0.0)
+        inconsistent = testable & (residual >= max(tolerance, self.s.plane_tolerance_m))
+        return float(agreement.mean() - 2.0 * inconsistent.mean() - (outside > self.s.hull_margin_m).mean())
+
+    def fractions(self, transform: Transform) -> dict:
+        """Shares of the images: testable, consistent, outside the hull, in free space or solid."""
+        q, residual, outside = self._residuals(transform)
+        testable = np.isfinite(residual)
+        consistent = testable & (residual < self.s.plane_tolerance_m)
+        free = 0.0
+        if self.gpis is not None:
+            lo, hi = self.gpis.region
+            f = self.gpis.mean(np.clip(q, lo, hi)).astype(float)
+            free = float(np.mean(np.abs(f) > self.s.free_depth_m))
+        return dict(testable=float(testable.mean()), consistent=float(consistent.mean()),
+                    share=float(consistent.sum() / testable.sum()) if testable.any() else 0.0,
+                    outside=float(np.mean(outside > self.s.hull_margin_m)), free=free)
+
+    def accepts(self, transform: Transform) -> bool:
+        f, s = self.fractions(transform), self.s
+        return (f["consistent"] >= s.min_consistent and f["testable"] - f["consistent"] <= s.max_inconsistent
+                and f["share"] >= s.min_consistent_share and f["outside"] <= s.max_outside
+                and f["free"] <= s.max_free)
+
+
+def _hemisphere(n: int) -> np.ndarray:
+    """About ``n`` unit vectors evenly spread over the upper hemisphere (z >= 0), (k, 3)."""
+    i = np.arange(2 * n) + 0.5
+    polar, azimuth = np.arccos(1 - i / n), np.pi * (1 + 5 ** 0.5) * i
+    d = np.column_stack([np.cos(azimuth) * np.sin(polar), np.sin(azimuth) * np.sin(polar), np.cos(polar)])
+    return d[d[:, 2] >= 0]
+
+
+def _angles(u: np.ndarray) -> tuple[float, float]:
+    return float(np.arccos(np.clip(u[2], -1.0, 1.0))), float(np.arctan2(u[1], u[0]))
+
+
+def _unit(polar: float, azimuth: float) -> np.ndarray:
+    return np.array([np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)])
+
+
+def _perpendicular(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    e1 = np.cross(v, [1.0, 0.0, 0.0] if abs(v[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(v, e1)
+
+
+def _axis_through(points, normals, v):
+    """The axis along ``v`` that the normal lines come nearest to meeting (reweighted least
+    squares: a handle's contacts are outliers), and the median miss distance, metres."""
+    v = v / np.linalg.norm(v)
+    c = np.cross(normals, v)
+    w = np.linalg.norm(c, axis=1)
+    use = w > 0.2  # normals along the axis (a flat bottom) say nothing about where it is
+    if use.sum() < 10:
+        return None, np.inf
+    e1, e2 = _perpendicular(v)
+    cu = c[use] / w[use, None]
+    a = np.column_stack([cu @ e1, cu @ e2])
+    b = np.einsum("ij,ij->i", points[use], cu)
+    weights = np.ones(len(b))
+    for _ in range(4):
+        st, *_ = np.linalg.lstsq(a * weights[:, None], b * weights, rcond=None)
+        miss = np.abs(a @ st - b)
+        scale = max(1.5 * float(np.median(miss)), 2e-4)
+        weights = 1.0 / np.maximum(miss / scale, 1.0)
+    return st[0] * e1 + st[1] * e2, float(np.median(miss))
+
+
+def _fit_axis(points, normals, directions: int = 400, starts: int = 5):
+    """(direction, point) of the best-fitting axis of the normal lines, or (None, None)."""
+    dirs = _hemisphere(directions)
+    misses = np.array([_axis_through(points, normals, v)[1] for v in dirs])
+    best = None
+    for i in np.argsort(misses)[:starts]:
+        if not np.isfinite(misses[i]):
+            continue
+        x0 = np.array(_angles(dirs[i]))
+        res = minimize(lambda x: _axis_through(points, normals, _unit(*x))[1], x0, method="Nelder-Mead",
+                       options=dict(xatol=1e-5, fatol=1e-7, maxiter=200,
+                                    initial_simplex=[x0, x0 + [0.03, 0.0], x0 + [0.0, 0.03]]))
+        v = _unit(*res.x)
+        point, miss = _axis_through(points, normals, v)
+        if point is not None and (best is None or miss < best[0]):
+            best = (miss, v, point)
+    return (None, None) if best is None else (best[1], best[2])
+
+
+def _refine_axis(judge: _ImageJudge, v, point):
+    """Refine the axis on the images of turns by 37, 90 and 180 deg, coarse then fine."""
+    e1, e2 = _perpendicular(v)
+
+    def unpack(x):
+        return _unit(x[0], x[1]), point + x[2] * e1 + x[3] * e2
+
+    def score(x, tolerance):
+        d, a = unpack(x)
+        return -sum(judge.soft_score(rotation(d, a, np.radians(angle)), tolerance) for angle in (37.0, 90.0, 180.0))
+
+    x = np.array([*_angles(v), 0.0, 0.0])
+    for tolerance, step in ((judge.s.plane_tolerance_m, (0.03, 0.002)), (judge.s.fine_tolerance_m, (0.01, 0.001))):
+        simplex = [x] + [x + np.eye(4)[i] * (step[0] if i < 2 else step[1]) for i in range(4)]
+        x = minimize(score, x, args=(tolerance,), method="Nelder-Mead",
+                     options=dict(xatol=1e-6, fatol=1e-6, maxiter=400, initial_simplex=simplex)).x
+    return unpack(x)
+
+
+def _revolution(judge: _ImageJudge, v, point, centre, settings: SymmetrySettings) -> Symmetry:
+    """The turns about an accepted axis, and the mirror across it (top-bottom) if accepted."""
+    group = [rotation(v, point, 2 * np.pi * k / settings.rotations) for k in range(1, settings.rotations)]
+    d0 = float(v @ centre)
+    res = minimize(lambda x: -judge.soft_score(reflection(v, x[0])), [d0], method="Nelder-Mead",
+                   options=dict(xatol=1e-5, initial_simplex=[[d0], [d0 + 0.003]]))
+    planes = ()
+    across = reflection(v, float(res.x[0]))
+    if judge.accepts(across):
+        m, t = across
+        group += [across] + [(m @ r, m @ s + t) for r, s in group]
+        planes = ((v, float(res.x[0])),)
+    return Symmetry(tuple(group), planes, (point, v))
+
+
+def _mirror_planes(judge: _ImageJudge, centre, settings: SymmetrySettings) -> list[tuple[np.ndarray, float]]:
+    """Accepted mirror planes (unit normal, offset), at most three, at least 80 deg apart."""
+    dirs = _hemisphere(settings.directions)
+    scores = np.array([judge.soft_score(reflection(u, u @ centre), settings.coarse_tolerance_m) for u in dirs])
+    starts: list[int] = []
+    for i in np.argsort(-scores):  # the best directions, 15 deg apart: one plane does not take every start
+        if all(abs(dirs[i] @ dirs[j]) < np.cos(np.radians(15.0)) for j in starts):
+            starts.append(int(i))
+        if len(starts) == settings.starts:
+            break
+    found: list[tuple[np.ndarray, float]] = []
+    for i in starts:
+        x = np.array([*_angles(dirs[i]), dirs[i] @ centre])
+        for tolerance, step in ((settings.coarse_tolerance_m, (0.05, 0.003)), (settings.plane_tolerance_m, (0.02, 0.002)),
+                                (settings.fine_tolerance_m, (0.01, 0.001))):
+            simplex = [x, x + [step[0], 0, 0], x + [0, step[0], 0], x + [0, 0, step[1]]]
+            x = minimize(lambda y: -judge.soft_score(reflection(_unit(y[0], y[1]), y[2]), tolerance), x,
+                         method="Nelder-Mead", options=dict(xatol=1e-5, fatol=1e-5, maxiter=300,
+                                                            initial_simplex=simplex)).x
+        u, d = _unit(x[0], x[1]), float(x[2])
+        if u[2] < 0:
+            u, d = -u, -d
+        if any(abs(u @ w) > np.cos(np.radians(10.0)) for w, _ in found):
+            continue
+        if judge.accepts(reflection(u, d)) and all(abs(u @ w) < np.cos(np.radians(80.0)) for w, _ in found):
+            found.append((u, d))
+    return found[:3]

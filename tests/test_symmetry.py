@@ -1,0 +1,125 @@
+"""Symmetry found from contacts (reconstruction/symmetry.py, issue 10).
+
+Each case builds a body whose symmetry is known in closed form, moves it to a random pose, samples
+contacts on it and checks what ``find_symmetry`` says against the truth.
+"""
+
+import copy
+
+import numpy as np
+import pytest
+import trimesh
+from scipy.spatial.transform import Rotation
+
+import objects
+from reconstruction.gpis import GPIS
+from reconstruction.metrics import surface_error
+from reconstruction.symmetry import Symmetry, find_symmetry, reflection, rotation
+from reconstruction.synthetic_contacts import ContactNoise, sample_contacts
+
+
+def _posed(mesh, seed):
+    """The mesh turned and shifted by a seeded random rigid motion, and that motion (R, t)."""
+    rng = np.random.default_rng(seed)
+    r = Rotation.random(random_state=seed).as_matrix()
+    t = rng.uniform(-0.02, 0.02, 3)
+    moved = mesh.copy()
+    moved.apply_transform(np.block([[r, t[:, None]], [np.zeros((1, 3)), np.ones((1, 1))]]))
+    return moved, r, t
+
+
+def _vase():
+    """A surface of revolution about z (a vase-like profile, 12 cm tall), metres."""
+    z = np.linspace(-0.06, 0.06, 25)
+    radius = 0.035 + 0.012 * np.sin(z / 0.06 * 2.2)
+    profile = np.column_stack([np.r_[0.0, radius, 0.0], np.r_[z[0], z, z[-1]]])
+    return trimesh.creation.revolve(profile, sections=96)
+
+
+def test_transforms_in_closed_form():
+    m, t = reflection(np.array([0.0, 0.0, 1.0]), 0.01)
+    assert np.allclose(m @ [0.1, 0.2, 0.0] + t, [0.1, 0.2, 0.02])
+    r, s = rotation(np.array([0.0, 0.0, 2.0]), np.array([0.1, 0.0, 0.0]), np.pi / 2)
+    assert np.allclose(r @ [0.2, 0.0, 0.3] + s, [0.1, 0.1, 0.3])
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_surface_of_revolution_in_any_pose(seed):
+    vase, r, t = _posed(_vase(), seed)
+    points, normals, _, _ = sample_contacts(vase, 150, noise=ContactNoise.off(), seed=seed)
+    found = find_symmetry(points, normals)
+    assert found.kind == "revolution"
+    point, direction = found.axis
+    true_direction, true_point = r @ [0.0, 0.0, 1.0], t
+    assert np.degrees(np.arccos(min(1.0, abs(direction @ true_direction)))) < 1.0
+    offset = (point - true_point) - ((point - true_point) @ true_direction) * true_direction
+    assert np.linalg.norm(offset) < 1e-3
+    images, _ = found.images(points, normals)
+    assert len(images) > len(points)
+    assert np.max(np.abs(trimesh.proximity.signed_distance(vase, images))) < 5e-4
+
+
+def test_a_box_has_its_three_mirror_planes():
+    box, r, t = _posed(trimesh.creation.box(extents=(0.12, 0.08, 0.05)), 3)
+    points, normals, _, _ = sample_contacts(box, 200, noise=ContactNoise.off(), seed=3)
+    found = find_symmetry(points, normals)
+    assert found.kind == "mirror" and len(found.planes) == 3
+    for u, d in found.planes:
+        assert np.degrees(np.arccos(np.max(np.abs(r.T @ u)))) < 1.0  # along one of the box's axes
+        assert abs(d - u @ t) < 1e-3                                  # through its centre
+    assert len(found.transforms) == 7                                 # the group of three planes
+    images, _ = found.images(points, normals)
+    assert np.max(np.abs(trimesh.proximity.signed_distance(box, images))) < 5e-4
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_an_irregular_body_has_none(seed):
+    rng = np.random.default_rng(seed)
+    body = trimesh.convex.convex_hull(rng.normal(scale=0.04, size=(14, 3)))
+    for noise in (ContactNoise.off(), ContactNoise()):
+        points, normals, _, _ = sample_contacts(body, 200, noise=noise, seed=seed)
+        assert find_symmetry(points, normals).kind == "none"
+
+
+def test_a_handle_breaks_the_revolution_but_keeps_its_mirror():
+    mug = objects.load("generated:mug/0").mesh
+    points, normals, _, _ = sample_contacts(mug, 300, noise=ContactNoise.off(), seed=0)
+    found = find_symmetry(points, normals, GPIS(bounds=_bounds(mug)).fit(points, normals))
+    assert found.kind != "revolution"
+    # whatever it keeps maps the mug onto itself
+    images, _ = found.images(points, normals)
+    if len(images):
+        assert np.max(np.abs(trimesh.proximity.signed_distance(mug, images))) < 1e-3
+
+
+def test_too_few_contacts_say_nothing():
+    vase = _vase()
+    points, normals, _, _ = sample_contacts(vase, 10, noise=ContactNoise.off(), seed=0)
+    assert find_symmetry(points, normals) == Symmetry()
+
+
+def _bounds(mesh):
+    lo, hi = mesh.bounds
+    pad = 0.2 * float(np.max(hi - lo))
+    return lo - pad, hi + pad
+
+
+def test_the_mesh_with_symmetry_fills_gaps_and_leaves_the_gpis_alone():
+    vase, _, _ = _posed(_vase(), 5)
+    points, normals, _, _ = sample_contacts(vase, 80, seed=5)
+    gp = GPIS(bounds=_bounds(vase)).fit(points, normals)
+    probe = vase.vertices[:50]
+    before = gp.mean(probe).copy()
+    plain = surface_error(gp.mesh(resolution=48), vase).position_rmse_mm
+    symmetric = surface_error(gp.mesh(resolution=48, symmetry=True), vase).position_rmse_mm
+    assert np.array_equal(gp.mean(probe), before) and gp.n_contacts == 80
+    assert symmetric < 0.8 * plain
+
+
+def test_a_copy_of_the_gpis_meshes_the_same():
+    box = trimesh.creation.box(extents=(0.1, 0.07, 0.04))
+    points, normals, _, _ = sample_contacts(box, 80, noise=ContactNoise.off(), seed=2)
+    gp = GPIS(bounds=_bounds(box)).fit(points, normals)
+    a = gp.mesh(resolution=32, symmetry=True)
+    b = copy.deepcopy(gp).mesh(resolution=32, symmetry=True)
+    assert np.allclose(a.vertices, b.vertices)
