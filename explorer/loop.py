@@ -254,6 +254,12 @@ class LoopConfig:
         :mod:`explorer.pad_bridging`); with normals only. The loop's own field is left as measured.
         Chosen on the tuning split (BENCHMARKS.md, "A flat pad bridges concave surfaces"). False:
         runs recorded before 2026-11-27.
+    reconstruction_symmetry : bool
+        The run's mesh also takes the contacts' images under the mirror planes or the axis of
+        revolution the contacts support (``GPIS.mesh(symmetry=...)``, :mod:`reconstruction.symmetry`);
+        ``metrics.json`` says what was found. The loop's own field and the strategy are left as
+        measured. Chosen on the tuning split (BENCHMARKS.md, "Symmetry found from the contacts").
+        False: runs recorded before 2026-11-29.
     """
 
     touches: int = ExplorationConfig.touches
@@ -293,6 +299,7 @@ class LoopConfig:
     stop_off_line: bool = False
     loose_settle_deviation_rad: float | None = float(np.radians(1.5))
     bridge_concave_contacts: bool = True
+    reconstruction_symmetry: bool = True
 
     def release_threshold_pa(self, detector: PressureDetectorConfig) -> float | None:
         """The contact pipeline's release test pressure (``ContactPipeline.release_threshold_pa``)

@@ -37,16 +37,22 @@ def export_mesh(mesh, path: Path) -> Path:
     return write_bytes(path, mesh.export(file_type=path.suffix.lstrip(".").lower()))
 
 
-def write_mesh(gpis, resolution: int, out_dir: Path, metrics: dict):
+def write_mesh(gpis, resolution: int, out_dir: Path, metrics: dict, symmetry: bool = False):
     """Mesh the GPIS mean surface into ``out_dir/reconstruction.ply``; returns the mesh or None.
 
     A field with no zero level set (or no contacts) gives None, with ``reconstruction_error`` in
-    ``metrics`` saying why when meshing failed.
+    ``metrics`` saying why when meshing failed. ``symmetry``: mesh with the contacts' symmetric
+    images (``GPIS.mesh(symmetry=...)``); ``metrics["reconstruction_symmetry"]`` says what was
+    found (``none``, ``mirror`` or ``revolution``, with the number of transforms).
     """
     if not gpis.n_contacts:
         return None
     try:
-        mesh = gpis.mesh(resolution=resolution)
+        found = False
+        if symmetry and gpis.use_normals:
+            found = gpis.symmetry()
+            metrics["reconstruction_symmetry"] = dict(kind=found.kind, transforms=len(found.transforms))
+        mesh = gpis.mesh(resolution=resolution, symmetry=found)
         export_mesh(mesh, Path(out_dir) / "reconstruction.ply")
     except ValueError as exc:
         metrics["reconstruction_error"] = str(exc)

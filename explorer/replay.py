@@ -308,6 +308,8 @@ class SessionReplay:
             self.loop_config = replace(self.loop_config, swept_free_space=False)
         if "loose_settle_deviation_rad" not in recorded_loop:  # recorded before the loose fallback
             self.loop_config = replace(self.loop_config, loose_settle_deviation_rad=None)
+        if "reconstruction_symmetry" not in recorded_loop:  # meshed without symmetric images then
+            self.loop_config = replace(self.loop_config, reconstruction_symmetry=False)
         if "reconstruction_free_space_noise" not in recorded_loop:  # meshed with the loop's free-space noise
             self.loop_config = replace(self.loop_config, reconstruction_free_space_noise=None)
         if "reconstruction_gates_misses" not in recorded_loop:  # meshed with the loop's miss rows
@@ -630,7 +632,8 @@ class SessionReplay:
         if not self.teleop:
             metrics["bridged_contacts"] = self._loop_config(settings).reconstruction_records(
                 result.touches, self.pad.half_width_m, result.gpis.use_normals)[1]
-        mesh = write_mesh(field, self.mesh_resolution(settings), out, metrics)
+        mesh = write_mesh(field, self.mesh_resolution(settings), out, metrics,
+                          self._loop_config(settings).reconstruction_symmetry)
         add_errors(metrics, mesh, self.truth, result.points_m, result.normals)
         outputs.write_json(out / "metrics.json", jsonable(metrics))
         if mesh is not None and self.truth is not None and settings.figures:
