@@ -45,6 +45,8 @@ METHODS = {
     "normals, confident surface": dict(kernel="thin_plate", use_normals=True, max_std_m=2.0e-3),
     # a partition of unity of local GPIS fits (reconstruction.partitioned_gpis; issue 10)
     "normals, partitioned": dict(kernel="thin_plate", use_normals=True, partitioned=True),
+    # the default GPIS meshed with the contacts' symmetric images (reconstruction.symmetry; issue 10)
+    "normals, symmetry": dict(kernel="thin_plate", use_normals=True, symmetry=True),
 }
 #: The literature's metrics (reconstruction.metrics.ShapeMetrics), means over the seeds.
 STANDARD = ("chamfer_l1_mm", "chamfer_l2_mm", "fscore_1mm", "fscore_2mm", "fscore_5mm", "normal_consistency")
@@ -79,6 +81,7 @@ def object_bounds(mesh) -> tuple[np.ndarray, np.ndarray]:
 def reconstruct(method: str, points, normals, bounds, resolution: int, **gp_kwargs):
     settings = dict(METHODS[method])
     max_std_m = settings.pop("max_std_m", None)
+    mesh_options = {"symmetry": True} if settings.pop("symmetry", False) else {}
     if settings.pop("partitioned", False):
         from reconstruction.partitioned_gpis import PartitionedGPIS
 
@@ -87,7 +90,7 @@ def reconstruct(method: str, points, normals, bounds, resolution: int, **gp_kwar
     else:
         gp = GPIS(bounds=bounds, **settings, **gp_kwargs)
     gp.fit(points, normals if settings["use_normals"] else None)
-    return gp.mesh(resolution=resolution, max_std_m=max_std_m)
+    return gp.mesh(resolution=resolution, max_std_m=max_std_m, **mesh_options)
 
 
 def evaluate(name: str, n_contacts: int, seeds: int, noise: ContactNoise, resolution: int,
