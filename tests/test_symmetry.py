@@ -123,3 +123,32 @@ def test_a_copy_of_the_gpis_meshes_the_same():
     a = gp.mesh(resolution=32, symmetry=True)
     b = copy.deepcopy(gp).mesh(resolution=32, symmetry=True)
     assert np.allclose(a.vertices, b.vertices)
+
+
+def test_write_mesh_says_what_symmetry_it_used(tmp_path):
+    from explorer.outputs import write_mesh
+
+    box = trimesh.creation.box(extents=(0.1, 0.07, 0.04))
+    points, normals, _, _ = sample_contacts(box, 120, noise=ContactNoise.off(), seed=4)
+    gp = GPIS(bounds=_bounds(box)).fit(points, normals)
+    metrics = {}
+    write_mesh(gp, 32, tmp_path, metrics, symmetry=True)
+    assert metrics["reconstruction_symmetry"] == dict(kind="mirror", transforms=7)
+    plain = {}
+    write_mesh(gp, 32, tmp_path, plain)
+    assert "reconstruction_symmetry" not in plain
+
+
+def test_sessions_recorded_before_the_setting_replay_without_it(recorded_sphere_run, tmp_path):
+    import json
+    import shutil
+
+    from explorer.replay import SessionReplay
+
+    assert SessionReplay(recorded_sphere_run.out_dir / "session").loop_config.reconstruction_symmetry
+    old = tmp_path / "old-session"
+    shutil.copytree(recorded_sphere_run.out_dir / "session", old)
+    metadata = json.loads((old / "metadata.json").read_text())
+    del metadata["configuration"]["loop"]["reconstruction_symmetry"]
+    (old / "metadata.json").write_text(json.dumps(metadata))
+    assert not SessionReplay(old).loop_config.reconstruction_symmetry
