@@ -98,6 +98,9 @@ class ReplaySettings:
     bridge_concave_contacts : bool or None
         Move contacts on concave surfaces in by the height their pad bridged before meshing
         (``LoopConfig.bridge_concave_contacts``); None: as recorded (sessions recorded before: off).
+    reconstruction_symmetry : bool or None
+        Mesh with the contacts' images under the symmetry they support
+        (``LoopConfig.reconstruction_symmetry``); None: as recorded (sessions recorded before: off).
     figures : bool
         Write the PNG figures.
     """
@@ -112,6 +115,7 @@ class ReplaySettings:
     segment_gap_s: float | None = None
     side_presses: bool | None = None
     bridge_concave_contacts: bool | None = None
+    reconstruction_symmetry: bool | None = None
     figures: bool = True
 
     def __post_init__(self):
@@ -531,13 +535,16 @@ class SessionReplay:
         return gpis
 
     def _loop_config(self, settings: ReplaySettings) -> LoopConfig:
-        """The recorded loop settings, with the side presses and the bridged contacts as ``settings`` asks."""
+        """The recorded loop settings, with the side presses, the bridged contacts and the symmetric
+        images as ``settings`` asks."""
         config = self.loop_config
         if settings.side_presses is not None:
             side_noise = (config.side_press_noise or LoopConfig.side_press_noise) if settings.side_presses else None
             config = replace(config, side_press_noise=side_noise)
         if settings.bridge_concave_contacts is not None:
             config = replace(config, bridge_concave_contacts=settings.bridge_concave_contacts)
+        if settings.reconstruction_symmetry is not None:
+            config = replace(config, reconstruction_symmetry=settings.reconstruction_symmetry)
         return config
 
     def _max_realigns(self) -> int:

@@ -40,6 +40,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--touches", type=int_at_least(1), help="touch budget (default 50)")
     parser.add_argument("--seed", type=int_at_least(0), help="random seed, >= 0 (default 0)")
     parser.add_argument("--no-normals", action="store_true", help="classic GPIS without normals")
+    parser.add_argument("--no-symmetry", action="store_true",
+                        help="mesh without the contacts' images under the symmetry they support "
+                             "(LoopConfig.reconstruction_symmetry; for an object known to be almost, not quite, symmetric)")
     parser.add_argument("--out", type=Path, default=Path("results/explore"),
                         help="output directory: new or empty (or the run to continue, with --resume)")
     parser.add_argument("--resume", action="store_true",
@@ -113,6 +116,7 @@ def main(argv: list[str] | None = None) -> int:
                                                    gui=args.gui, profile=args.profile or "datasheet-noise",
                                                    calibration=None if args.calibration is None else str(args.calibration)),
                                        **overrides)
+        settings = _without_symmetry(settings) if args.no_symmetry else settings
 
         def run(progress, status):
             return explore(settings, args.out, progress, args.resume, observer, status=status)
@@ -126,6 +130,7 @@ def main(argv: list[str] | None = None) -> int:
         except (OSError, ValueError) as error:
             parser.error(str(error))
         settings = dataclasses.replace(run_settings(config), **overrides)
+        settings = _without_symmetry(settings) if args.no_symmetry else settings
 
         def run(progress, status):
             with open_rig(config) as rig:
@@ -256,3 +261,8 @@ def _remove_if_empty(path: Path) -> None:
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+def _without_symmetry(settings):
+    """``settings`` with the run's mesh made without the contacts' symmetric images."""
+    return dataclasses.replace(settings, loop=dataclasses.replace(settings.loop, reconstruction_symmetry=False))

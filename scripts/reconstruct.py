@@ -37,6 +37,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--bridge-concave", choices=("on", "off"),
                         help="move contacts on concave surfaces in by the height the flat pad bridged "
                              "(LoopConfig.bridge_concave_contacts); default: as recorded")
+    parser.add_argument("--symmetry", choices=("on", "off"),
+                        help="mesh with the contacts' images under the mirror planes or axis of revolution they "
+                             "support (LoopConfig.reconstruction_symmetry); default: as recorded")
     add_rerun_argument(parser)
     args = parser.parse_args(argv)
     if not args.session.is_dir():
@@ -68,12 +71,13 @@ def main(argv: list[str] | None = None) -> None:
             kernel=args.kernel, noise=args.noise, normal_noise=args.normal_noise,
             use_normals=False if args.no_normals else None, mesh_resolution=args.resolution,
             side_presses=None if args.side_presses is None else args.side_presses == "on",
-            bridge_concave_contacts=None if args.bridge_concave is None else args.bridge_concave == "on")
+            bridge_concave_contacts=None if args.bridge_concave is None else args.bridge_concave == "on",
+            reconstruction_symmetry=None if args.symmetry is None else args.symmetry == "on")
         result = replay(args.session, settings, args.out)
     except (ValueError, FileNotFoundError) as err:  # a bad setting, or a session that cannot be replayed
         parser.error(str(err))
     keys = ("touches", "contacts", "misses", "realign", "no_normal", "same_press", "recorded_contacts",
-            "position_rmse_mm", "normal_rmse_deg", "notes")
+            "reconstruction_symmetry", "position_rmse_mm", "normal_rmse_deg", "notes")
     print(json.dumps({k: result.metrics.get(k) for k in keys}, indent=2))
     print(f"outputs in {args.out}")
 

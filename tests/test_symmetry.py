@@ -152,3 +152,21 @@ def test_sessions_recorded_before_the_setting_replay_without_it(recorded_sphere_
     del metadata["configuration"]["loop"]["reconstruction_symmetry"]
     (old / "metadata.json").write_text(json.dumps(metadata))
     assert not SessionReplay(old).loop_config.reconstruction_symmetry
+
+
+def test_replay_meshes_with_or_without_the_images_as_asked(recorded_sphere_run, tmp_path):
+    from explorer.replay import ReplaySettings, replay
+
+    session = recorded_sphere_run.out_dir / "session"
+    on = replay(session, ReplaySettings(figures=False), tmp_path / "on")
+    off = replay(session, ReplaySettings(figures=False, reconstruction_symmetry=False), tmp_path / "off")
+    assert on.metrics["reconstruction_symmetry"]["kind"] in ("none", "mirror", "revolution")
+    assert "reconstruction_symmetry" not in off.metrics
+
+
+def test_explore_without_symmetry_turns_the_loop_setting_off():
+    from explorer.run import RunSettings
+    from scripts.explore import _without_symmetry
+
+    settings = _without_symmetry(RunSettings(object="sphere"))
+    assert settings.loop.reconstruction_symmetry is False and RunSettings().loop.reconstruction_symmetry
