@@ -48,7 +48,18 @@ Transform = tuple[np.ndarray, np.ndarray]
 
 @dataclass(frozen=True)
 class SymmetrySettings:
-    """How symmetries are searched and judged (lengths in metres, angles in radians)."""
+    """How symmetries are searched and judged (lengths in metres, angles in radians).
+
+    ``match_radius_m``: how near a contact an image must lie to be tested; ``coarse_tolerance_m``,
+    ``plane_tolerance_m``, ``fine_tolerance_m``: off-plane distances of the three search stages
+    (the middle one also judges); ``normal_cone_rad``: how far the image's and the contact's
+    normals may differ; ``min_consistent`` ... ``max_free``: the acceptance shares of the module
+    docstring, with ``hull_margin_m`` and ``free_depth_m`` their distances; ``directions`` /
+    ``starts``: plane normals scored on a hemisphere and how many are refined; ``rotations``:
+    turns about an axis of revolution (360 / rotations apart); ``min_image_gap_m`` /
+    ``max_images``: images kept (:meth:`Symmetry.images`); ``min_contacts``: fewer contacts say
+    nothing.
+    """
 
     match_radius_m: float = 0.008
     coarse_tolerance_m: float = 5e-3
