@@ -48,11 +48,14 @@ def write_mesh(gpis, resolution: int, out_dir: Path, metrics: dict, symmetry: bo
     if not gpis.n_contacts:
         return None
     try:
-        found = False
-        if symmetry and gpis.use_normals:
+        options = {}
+        from reconstruction.gpis import GPIS
+
+        if symmetry and isinstance(gpis, GPIS) and gpis.use_normals:  # a PartitionedGPIS meshes plainly
             found = gpis.symmetry()
             metrics["reconstruction_symmetry"] = dict(kind=found.kind, transforms=len(found.transforms))
-        mesh = gpis.mesh(resolution=resolution, symmetry=found)
+            options["symmetry"] = found
+        mesh = gpis.mesh(resolution=resolution, **options)
         export_mesh(mesh, Path(out_dir) / "reconstruction.ply")
     except ValueError as exc:
         metrics["reconstruction_error"] = str(exc)

@@ -406,7 +406,8 @@ class GPIS:
         return find_symmetry(self.contact_points, self.contact_normals, self)
 
     def _with_symmetric_images(self, found) -> "GPIS":
-        """A copy observing the contacts' images under ``found`` as contacts, or this GPIS if none."""
+        """A copy observing the contacts' images under ``found`` as contacts, or this GPIS if none.
+        Images outside the GPIS's region are not used (they are inferred, not measured)."""
         points, normals = self.contact_points, self.contact_normals
         images, image_normals = found.images(points, normals)
         lo, hi = self.region

@@ -170,3 +170,14 @@ def test_explore_without_symmetry_turns_the_loop_setting_off():
 
     settings = _without_symmetry(RunSettings(object="sphere"))
     assert settings.loop.reconstruction_symmetry is False and RunSettings().loop.reconstruction_symmetry
+
+
+def test_write_mesh_meshes_a_partitioned_gpis_without_images(tmp_path):
+    from explorer.outputs import write_mesh
+    from reconstruction.partitioned_gpis import PartitionedGPIS
+
+    box = trimesh.creation.box(extents=(0.1, 0.07, 0.04))
+    points, normals, _, _ = sample_contacts(box, 60, noise=ContactNoise.off(), seed=6)
+    metrics = {}
+    assert write_mesh(PartitionedGPIS(_bounds(box)).fit(points, normals), 24, tmp_path, metrics, symmetry=True) is not None
+    assert "reconstruction_symmetry" not in metrics
