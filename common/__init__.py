@@ -1,6 +1,7 @@
 """What both ``robots`` and ``sensor`` need, and nothing of theirs: the bottom layer.
 
 * :mod:`common.rotations` - (w, x, y, z) quaternions, rotation matrices, scipy bridge;
+* :mod:`common.directions` - evenly spread unit directions, perpendicular frames;
 * :mod:`common.pad_state` - the simulator's true pad state (robots produce it, sensors read it);
 * :mod:`common.sentences` - ``$...*CS`` line framing of the serial protocols;
 * :mod:`common.clock`, :mod:`common.fake_port`, :mod:`common.pyserial_port` - a virtual clock and

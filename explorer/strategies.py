@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from common.directions import fibonacci_directions, perpendicular_frame  # noqa: F401 (re-exported)
 from explorer.touch import ObjectPrior, Touch
 from reconstruction.gpis import GPIS
 
@@ -82,15 +83,6 @@ class TouchStrategy(abc.ABC):
         return None
 
 
-def fibonacci_directions(n: int) -> np.ndarray:
-    """(n, 3) unit vectors evenly spread over the sphere."""
-    i = np.arange(n) + 0.5
-    z = 1 - 2 * i / n
-    phi = np.pi * (1 + 5**0.5) * i
-    r = np.sqrt(1 - z**2)
-    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
-
-
 def farthest_point_order(directions: np.ndarray, first: int = 0) -> np.ndarray:
     """Indices visiting the (n, 3) directions so that each is far from all visited before."""
     order = [first]
@@ -116,15 +108,6 @@ def _not_near(points: np.ndarray, avoid: list[np.ndarray], radius_m: float) -> n
     avoid_arr = np.asarray(avoid)
     d = np.linalg.norm(points[:, None, :] - avoid_arr[None, :, :], axis=-1)
     return d.min(1) > radius_m
-
-
-def perpendicular_frame(directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two (k, 3) unit vectors perpendicular to each of the (k, 3) unit ``directions`` and to each
-    other (right-handed with it)."""
-    helper = np.where(np.abs(directions[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
-    first = np.cross(directions, helper)
-    first /= np.linalg.norm(first, axis=1, keepdims=True)
-    return first, np.cross(directions, first)
 
 
 def clear_approach(gp: GPIS, target: np.ndarray, preferred: np.ndarray, path_m: float = 0.045,

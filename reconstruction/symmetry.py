@@ -41,6 +41,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 from scipy.spatial import ConvexHull, cKDTree
+from scipy.spatial.transform import Rotation
+
+from common.directions import fibonacci_directions, perpendicular_frame
 
 #: A rigid map ``x -> M @ x + t``: (M (3, 3), t (3,)), object frame, metres.
 Transform = tuple[np.ndarray, np.ndarray]
@@ -148,8 +151,7 @@ def reflection(normal: np.ndarray, offset_m: float) -> Transform:
 def rotation(direction: np.ndarray, point_m: np.ndarray, angle_rad: float) -> Transform:
     """The turn by ``angle_rad`` about the axis through ``point_m`` along ``direction``."""
     v = np.asarray(direction, float) / np.linalg.norm(direction)
-    k = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-    r = np.eye(3) + np.sin(angle_rad) * k + (1.0 - np.cos(angle_rad)) * k @ k
+    r = Rotation.from_rotvec(angle_rad * v).as_matrix()
     return r, np.asarray(point_m, float) - r @ point_m
 
 
@@ -271,9 +273,7 @@ class _ImageJudge:
 
 def _hemisphere(n: int) -> np.ndarray:
     """About ``n`` unit vectors evenly spread over the upper hemisphere (z >= 0), (k, 3)."""
-    i = np.arange(2 * n) + 0.5
-    polar, azimuth = np.arccos(1 - i / n), np.pi * (1 + 5 ** 0.5) * i
-    d = np.column_stack([np.cos(azimuth) * np.sin(polar), np.sin(azimuth) * np.sin(polar), np.cos(polar)])
+    d = fibonacci_directions(2 * n)
     return d[d[:, 2] >= 0]
 
 
@@ -285,12 +285,6 @@ def _unit(polar: float, azimuth: float) -> np.ndarray:
     return np.array([np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)])
 
 
-def _perpendicular(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    e1 = np.cross(v, [1.0, 0.0, 0.0] if abs(v[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    return e1, np.cross(v, e1)
-
-
 def _axis_through(points, normals, v):
     """The axis along ``v`` that the normal lines come nearest to meeting (reweighted least
     squares: a handle's contacts are outliers), and the median miss distance, metres."""
@@ -300,7 +294,7 @@ def _axis_through(points, normals, v):
     use = w > 0.2  # normals along the axis (a flat bottom) say nothing about where it is
     if use.sum() < 10:
         return None, np.inf
-    e1, e2 = _perpendicular(v)
+    e1, e2 = (w[0] for w in perpendicular_frame(v[None]))
     cu = c[use] / w[use, None]
     a = np.column_stack([cu @ e1, cu @ e2])
     b = np.einsum("ij,ij->i", points[use], cu)
@@ -334,7 +328,7 @@ def _fit_axis(points, normals, directions: int = 400, starts: int = 5):
 
 def _refine_axis(judge: _ImageJudge, v, point):
     """Refine the axis on the images of turns by 37, 90 and 180 deg, coarse then fine."""
-    e1, e2 = _perpendicular(v)
+    e1, e2 = (w[0] for w in perpendicular_frame(v[None]))
 
     def unpack(x):
         return _unit(x[0], x[1]), point + x[2] * e1 + x[3] * e2
