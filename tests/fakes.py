@@ -216,3 +216,17 @@ def sphere_rig(radius_m: float = 0.04, centre_m=(0.0, 0.5, 1.0)):
     rig = Rig(FakeRobot(world), FakeSensor(world), FakeKinematics(), stand, prior, None,
               dict(robot="fake", sensor="fake", object="virtual sphere", backend="in memory"), point_pad())
     return world, rig
+
+
+def session_recorded_without(session_dir, dest, *loop_settings):
+    """A copy of a recorded session at ``dest`` whose metadata lacks these ``LoopConfig`` fields,
+    as a session recorded before they existed; returns ``dest``."""
+    import json
+    import shutil
+
+    shutil.copytree(session_dir, dest)
+    metadata = json.loads((dest / "metadata.json").read_text())
+    for name in loop_settings:
+        del metadata["configuration"]["loop"][name]
+    (dest / "metadata.json").write_text(json.dumps(metadata))
+    return dest

@@ -2,11 +2,10 @@
 closed forms (inside a sphere every pair's curvature is exactly 1 / R, so the sagitta over the
 pad's reach is ``reach^2 / 2R``; outside it, on a plane and across a thin wall nothing moves), the
 loop's reconstruction records, and replay of sessions recorded before the setting."""
-import json
-import shutil
 
 import numpy as np
 import pytest
+from fakes import session_recorded_without
 
 from explorer.loop import LoopConfig
 from explorer.pad_bridging import PadBridging
@@ -99,11 +98,7 @@ def test_replay_bridges_as_recorded_and_sessions_before_the_setting_do_not(recor
     run = recorded_sphere_run
     assert "bridged_contacts" in run.metrics
     assert SessionReplay(run.out_dir / "session").loop_config.bridge_concave_contacts
-    old = tmp_path / "old-session"
-    shutil.copytree(run.out_dir / "session", old)
-    metadata = json.loads((old / "metadata.json").read_text())
-    del metadata["configuration"]["loop"]["bridge_concave_contacts"]
-    (old / "metadata.json").write_text(json.dumps(metadata))
+    old = session_recorded_without(run.out_dir / "session", tmp_path / "old-session", "bridge_concave_contacts")
     before = SessionReplay(old)
     assert not before.loop_config.bridge_concave_contacts
     assert before._loop_config(ReplaySettings(bridge_concave_contacts=True)).bridge_concave_contacts

@@ -140,17 +140,12 @@ def test_write_mesh_says_what_symmetry_it_used(tmp_path):
 
 
 def test_sessions_recorded_before_the_setting_replay_without_it(recorded_sphere_run, tmp_path):
-    import json
-    import shutil
-
     from explorer.replay import SessionReplay
+    from fakes import session_recorded_without
 
-    assert SessionReplay(recorded_sphere_run.out_dir / "session").loop_config.reconstruction_symmetry
-    old = tmp_path / "old-session"
-    shutil.copytree(recorded_sphere_run.out_dir / "session", old)
-    metadata = json.loads((old / "metadata.json").read_text())
-    del metadata["configuration"]["loop"]["reconstruction_symmetry"]
-    (old / "metadata.json").write_text(json.dumps(metadata))
+    session = recorded_sphere_run.out_dir / "session"
+    assert SessionReplay(session).loop_config.reconstruction_symmetry
+    old = session_recorded_without(session, tmp_path / "old-session", "reconstruction_symmetry")
     assert not SessionReplay(old).loop_config.reconstruction_symmetry
 
 
