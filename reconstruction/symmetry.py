@@ -27,8 +27,12 @@ so the axis is fitted to the contacts' normal lines (robust least squares over a
 directions), then refined on the images of rotations by 37, 90 and 180 deg, and accepted by the
 images of 37 and 90 deg turns. Otherwise mirror planes: a hemisphere of plane normals through the
 contacts' centroid, the best ``starts`` refined (Nelder-Mead on a soft score, then a finer one),
-up to three accepted planes at least 80 deg apart; two accepted planes whose intersection is an
-axis of revolution (images of a 37 deg turn accepted) give the revolution too.
+up to three accepted planes at least 80 deg apart. An axis the turns refused (a mug: its handle)
+first offers the planes through it, scored every 2 deg, as starts: every one of them fits the cup
+and only the handle's plane fits the handle, which a local search from elsewhere does not see. The
+soft score counts images in the GPIS's free space or solid too (its mean on a grid). Two accepted
+planes whose intersection is an axis of revolution (images of a 37 deg turn accepted) give the
+revolution too.
 
 Written here rather than taken from a library: the symmetry detectors of the mesh libraries
 (``trimesh.Trimesh.symmetry``) work on a finished, exact mesh; this works on 50-400 noisy oriented
@@ -39,6 +43,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import map_coordinates
 from scipy.optimize import minimize
 from scipy.spatial import ConvexHull, cKDTree
 from scipy.spatial.transform import Rotation
@@ -58,10 +63,11 @@ class SymmetrySettings:
     (the middle one also judges); ``normal_cone_rad``: how far the image's and the contact's
     normals may differ; ``min_consistent`` ... ``max_free``: the acceptance shares of the module
     docstring, with ``hull_margin_m`` and ``free_depth_m`` their distances; ``directions`` /
-    ``starts``: plane normals scored on a hemisphere and how many are refined; ``rotations``:
-    turns about an axis of revolution (360 / rotations apart); ``min_image_gap_m`` /
-    ``max_images``: images kept (:meth:`Symmetry.images`); ``min_contacts``: fewer contacts say
-    nothing.
+    ``starts``: plane normals scored on a hemisphere and how many are refined; ``axis_starts``:
+    planes through a refused axis of revolution refined first; ``search_grid``: points per axis
+    of the GPIS mean the search interpolates; ``rotations``: turns about an axis of revolution
+    (360 / rotations apart); ``min_image_gap_m`` / ``max_images``: images kept
+    (:meth:`Symmetry.images`); ``min_contacts``: fewer contacts say nothing.
     """
 
     match_radius_m: float = 0.008
@@ -78,6 +84,8 @@ class SymmetrySettings:
     free_depth_m: float = 4e-3
     directions: int = 400
     starts: int = 12
+    axis_starts: int = 3
+    search_grid: int = 32
     rotations: int = 8
     min_image_gap_m: float = 3e-3
     max_images: int = 1000
@@ -179,12 +187,14 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
     centre = points.mean(0)
 
     direction, point = _fit_axis(points, normals)
+    through_axis: list[tuple[np.ndarray, float]] = []
     if direction is not None:
         direction, point = _refine_axis(judge, direction, point)
         if all(judge.accepts(rotation(direction, point, np.radians(a))) for a in (37.0, 90.0)):
             return _revolution(judge, direction, point, centre, settings)
+        through_axis = _planes_through_axis(judge, direction, point, settings)
 
-    planes = _mirror_planes(judge, centre, settings)
+    planes = _mirror_planes(judge, centre, settings, through_axis)
     if len(planes) >= 2:
         (u1, d1), (u2, d2) = planes[:2]
         v = np.cross(u1, u2)
@@ -218,6 +228,7 @@ class _ImageJudge:
     def __init__(self, points, normals, gpis, settings: SymmetrySettings):
         self.points, self.normals, self.gpis, self.s = points, normals, gpis, settings
         self.tree = cKDTree(points)
+        self._depth_grid = None
         self.cos_cone = np.cos(settings.normal_cone_rad)
         try:
             self.hull = ConvexHull(points).equations
@@ -226,29 +237,46 @@ class _ImageJudge:
             self.hull, self.usable = None, False
 
     def _residuals(self, transform: Transform, neighbours: int = 4):
-        """(n,) distance of each image to the tangent plane of the best agreeing contact within
-        the match radius (inf: none near), and (n,) its distance outside the hull."""
+        """(n, 3) the images, (n,) distance of each image to the tangent plane of the best agreeing
+        contact within the match radius (inf: none near), and (n,) its distance outside the hull."""
         m, t = transform
         q, qn = self.points @ m.T + t, self.normals @ m.T
         dist, idx = self.tree.query(q, k=neighbours, distance_upper_bound=self.s.match_radius_m)
-        residual = np.full(len(q), np.inf)
-        for j in range(neighbours):
-            near = np.isfinite(dist[:, j])
-            i = np.where(near, idx[:, j], 0)
-            agrees = near & (np.einsum("ij,ij->i", self.normals[i], qn) > self.cos_cone)
-            off_plane = np.abs(np.einsum("ij,ij->i", q - self.points[i], self.normals[i]))
-            residual = np.where(agrees, np.minimum(residual, off_plane), residual)
+        near = np.isfinite(dist)
+        idx = np.where(near, idx, 0)
+        contact_normals = self.normals[idx]  # (n, k, 3)
+        agrees = near & (np.einsum("ikj,ij->ik", contact_normals, qn) > self.cos_cone)
+        off_plane = np.abs(np.einsum("ikj,ikj->ik", q[:, None, :] - self.points[idx], contact_normals))
+        residual = np.min(np.where(agrees, off_plane, np.inf), axis=1)
         outside = np.max(q @ self.hull[:, :3].T + self.hull[:, 3], axis=1)
         return q, residual, outside
 
     def soft_score(self, transform: Transform, tolerance_m: float | None = None) -> float:
-        """Smooth score for the search: Gaussian agreement minus inconsistent and outside images."""
+        """Smooth score for the search: Gaussian agreement minus inconsistent, outside and free
+        images (the last from the GPIS mean interpolated on a grid: a mug's handle decides between
+        vertical planes that all fit its cup)."""
         tolerance = tolerance_m or self.s.plane_tolerance_m
-        _, residual, outside = self._residuals(transform)
+        q, residual, outside = self._residuals(transform)
         testable = np.isfinite(residual)
         agreement = np.where(testable, np.exp(-0.5 * (np.where(testable, residual, 0.0) / tolerance) ** 2), 0.0)
         inconsistent = testable & (residual >= max(tolerance, self.s.plane_tolerance_m))
-        return float(agreement.mean() - 2.0 * inconsistent.mean() - (outside > self.s.hull_margin_m).mean())
+        free = 0.0
+        if self.gpis is not None:
+            free = float(np.mean(np.abs(self._grid_depth(q)) > self.s.free_depth_m))
+        return float(agreement.mean() - 2.0 * inconsistent.mean() - (outside > self.s.hull_margin_m).mean()
+                     - 2.0 * free)
+
+    def _grid_depth(self, q: np.ndarray) -> np.ndarray:
+        """(n,) the GPIS mean at ``q``, trilinear on a grid of ``search_grid`` points per axis
+        (built once: the search scores thousands of candidates)."""
+        lo, hi = self.gpis.region
+        steps = self.s.search_grid - 1
+        if self._depth_grid is None:
+            axes = [np.linspace(lo[k], hi[k], self.s.search_grid) for k in range(3)]
+            grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+            self._depth_grid = np.asarray(self.gpis.mean(grid), float).reshape((self.s.search_grid,) * 3)
+        index = (np.clip(q, lo, hi) - lo) / (hi - lo) * steps
+        return map_coordinates(self._depth_grid, index.T, order=1, mode="nearest")
 
     def fractions(self, transform: Transform) -> dict:
         """Shares of the images: testable, consistent, outside the hull, in free space or solid."""
@@ -360,8 +388,26 @@ def _revolution(judge: _ImageJudge, v, point, centre, settings: SymmetrySettings
     return Symmetry(tuple(group), planes, (point, v))
 
 
-def _mirror_planes(judge: _ImageJudge, centre, settings: SymmetrySettings) -> list[tuple[np.ndarray, float]]:
-    """Accepted mirror planes (unit normal, offset), at most three, at least 80 deg apart."""
+def _planes_through_axis(judge: _ImageJudge, v, point, settings: SymmetrySettings) -> list[tuple[np.ndarray, float]]:
+    """The best ``axis_starts`` planes containing a refused axis of revolution, every 2 deg.
+
+    A body of revolution with a feature (a mug's handle, a jug's spout) has every plane through
+    its axis as a near-mirror; only the one through the feature is a mirror. The search's score
+    sees the feature's few images only where the plane is already right, so the planes through the
+    axis are scored one by one and the best become starts."""
+    e1, e2 = (w[0] for w in perpendicular_frame(v[None]))
+    candidates = []
+    for angle in np.radians(np.arange(0.0, 180.0, 2.0)):
+        u = np.cos(angle) * e1 + np.sin(angle) * e2
+        candidates.append((judge.soft_score(reflection(u, float(u @ point))), u, float(u @ point)))
+    candidates.sort(key=lambda c: -c[0])
+    return [(u, d) for _, u, d in candidates[:settings.axis_starts]]
+
+
+def _mirror_planes(judge: _ImageJudge, centre, settings: SymmetrySettings,
+                   extra_starts: list[tuple[np.ndarray, float]] = ()) -> list[tuple[np.ndarray, float]]:
+    """Accepted mirror planes (unit normal, offset), at most three, at least 80 deg apart;
+    ``extra_starts`` (unit normal, offset) are refined first."""
     dirs = _hemisphere(settings.directions)
     scores = np.array([judge.soft_score(reflection(u, u @ centre), settings.coarse_tolerance_m) for u in dirs])
     starts: list[int] = []
@@ -371,8 +417,9 @@ def _mirror_planes(judge: _ImageJudge, centre, settings: SymmetrySettings) -> li
         if len(starts) == settings.starts:
             break
     found: list[tuple[np.ndarray, float]] = []
-    for i in starts:
-        x = np.array([*_angles(dirs[i]), dirs[i] @ centre])
+    initial = [(u if u[2] >= 0 else -u, d if u[2] >= 0 else -d) for u, d in extra_starts]
+    for u0, d0 in initial + [(dirs[i], float(dirs[i] @ centre)) for i in starts]:
+        x = np.array([*_angles(u0), d0])
         for tolerance, step in ((settings.coarse_tolerance_m, (0.05, 0.003)), (settings.plane_tolerance_m, (0.02, 0.002)),
                                 (settings.fine_tolerance_m, (0.01, 0.001))):
             simplex = [x, x + [step[0], 0, 0], x + [0, step[0], 0], x + [0, 0, step[1]]]

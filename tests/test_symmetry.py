@@ -92,6 +92,20 @@ def test_a_handle_breaks_the_revolution_but_keeps_its_mirror():
         assert np.max(np.abs(trimesh.proximity.signed_distance(mug, images))) < 1e-3
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_handle_keeps_its_mirror_in_any_pose_and_with_noise(seed):
+    # Every vertical plane through the cup's axis fits the cup; only the handle's plane fits the
+    # handle, and the search finds it among them (it used to stop at a plane through the cup alone).
+    mug, r, t = _posed(objects.load("generated:mug/1").mesh, seed)
+    points, normals, _, _ = sample_contacts(mug, 200, seed=102)
+    found = find_symmetry(points, normals, GPIS(bounds=_bounds(mug)).fit(points, normals))
+    assert found.kind == "mirror"
+    handle_plane = r @ [0.0, 1.0, 0.0]  # the generated mug's handle lies in its y = 0 plane
+    u, d = found.planes[0]
+    assert np.degrees(np.arccos(min(1.0, abs(u @ handle_plane)))) < 5.0  # a plane through the cup alone: 10-90
+    assert abs(abs(d) - abs(handle_plane @ t)) < 2e-3
+
+
 def test_too_few_contacts_say_nothing():
     vase = _vase()
     points, normals, _, _ = sample_contacts(vase, 10, noise=ContactNoise.off(), seed=0)
