@@ -29,8 +29,10 @@ images of 37 and 90 deg turns. Otherwise mirror planes: a hemisphere of plane no
 contacts' centroid, the best ``starts`` refined (Nelder-Mead on a soft score, then a finer one),
 up to three accepted planes at least 80 deg apart. An axis the turns refused (a mug: its handle)
 first offers the planes through it, scored every 2 deg, as starts: every one of them fits the cup
-and only the handle's plane fits the handle, which a local search from elsewhere does not see. The
-soft score counts images in the GPIS's free space or solid too (its mean on a grid). Two accepted
+and only the handle's plane fits the handle, which a local search from elsewhere does not see.
+When those planes typically put more than ``max_free`` of the images in free space (a feature
+refused the axis), a plane through the axis must halve their share to be accepted. The soft
+score counts images in the GPIS's free space or solid too (its mean on a grid). Two accepted
 planes whose intersection is an axis of revolution (images of a 37 deg turn accepted) give the
 revolution too.
 
@@ -192,7 +194,12 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
         direction, point = _refine_axis(judge, direction, point)
         if all(judge.accepts(rotation(direction, point, np.radians(a))) for a in (37.0, 90.0)):
             return _revolution(judge, direction, point, centre, settings)
-        through_axis = _planes_through_axis(judge, direction, point, settings)
+        through_axis, typical_free = _planes_through_axis(judge, direction, point, settings)
+        if typical_free > settings.max_free:
+            # A feature refused the axis (the planes through it put its images in free space): a
+            # plane through the axis is its mirror only if it halves that share (a plane 10 deg off
+            # a mug's handle still passes max_free).
+            judge.feature_axis = (direction, point, 0.5 * typical_free)
 
     planes = _mirror_planes(judge, centre, settings, through_axis)
     if len(planes) >= 2:
@@ -229,6 +236,7 @@ class _ImageJudge:
         self.points, self.normals, self.gpis, self.s = points, normals, gpis, settings
         self.tree = cKDTree(points)
         self._depth_grid = None
+        self.feature_axis = None
         self.cos_cone = np.cos(settings.normal_cone_rad)
         try:
             self.hull = ConvexHull(points).equations
@@ -296,7 +304,21 @@ class _ImageJudge:
         f, s = self.fractions(transform), self.s
         return (f["consistent"] >= s.min_consistent and f["testable"] - f["consistent"] <= s.max_inconsistent
                 and f["share"] >= s.min_consistent_share and f["outside"] <= s.max_outside
-                and f["free"] <= s.max_free)
+                and f["free"] <= min(s.max_free, self._free_limit(transform)))
+
+    def _free_limit(self, transform: Transform) -> float:
+        """The free-space share allowed: half the typical one for a mirror containing the axis a
+        feature refused (``feature_axis``: direction, point, limit), else no extra limit."""
+        if self.feature_axis is None:
+            return np.inf
+        m, t = transform
+        v, point, limit = self.feature_axis
+        if np.linalg.det(m) > 0:
+            return np.inf
+        u = np.linalg.eigh(m)[1][:, 0]  # a mirror's normal: its eigenvector of eigenvalue -1
+        offset = float(u @ t) / 2.0
+        contains = abs(u @ v) < np.sin(np.radians(5.0)) and abs(u @ point - offset) < self.s.plane_tolerance_m * 2
+        return limit if contains else np.inf
 
 
 def _hemisphere(n: int) -> np.ndarray:
@@ -388,8 +410,10 @@ def _revolution(judge: _ImageJudge, v, point, centre, settings: SymmetrySettings
     return Symmetry(tuple(group), planes, (point, v))
 
 
-def _planes_through_axis(judge: _ImageJudge, v, point, settings: SymmetrySettings) -> list[tuple[np.ndarray, float]]:
-    """The best ``axis_starts`` planes containing a refused axis of revolution, every 2 deg.
+def _planes_through_axis(judge: _ImageJudge, v, point, settings: SymmetrySettings):
+    """The best ``axis_starts`` planes (unit normal, offset) containing a refused axis of
+    revolution, of the planes through it every 2 deg, and the median share of their images in free
+    space or solid.
 
     A body of revolution with a feature (a mug's handle, a jug's spout) has every plane through
     its axis as a near-mirror; only the one through the feature is a mirror. The search's score
@@ -399,9 +423,11 @@ def _planes_through_axis(judge: _ImageJudge, v, point, settings: SymmetrySetting
     candidates = []
     for angle in np.radians(np.arange(0.0, 180.0, 2.0)):
         u = np.cos(angle) * e1 + np.sin(angle) * e2
-        candidates.append((judge.soft_score(reflection(u, float(u @ point))), u, float(u @ point)))
+        f = judge.fractions(reflection(u, float(u @ point)))  # exact: the feature's images are few
+        score = f["consistent"] - 2.0 * (f["testable"] - f["consistent"]) - f["outside"] - 4.0 * f["free"]
+        candidates.append((score, u, float(u @ point), f["free"]))
     candidates.sort(key=lambda c: -c[0])
-    return [(u, d) for _, u, d in candidates[:settings.axis_starts]]
+    return [(u, d) for _, u, d, _ in candidates[:settings.axis_starts]], float(np.median([c[3] for c in candidates]))
 
 
 def _mirror_planes(judge: _ImageJudge, centre, settings: SymmetrySettings,
