@@ -3,6 +3,9 @@
 VENV ?= .venv
 PY := $(VENV)/bin/python
 OUT ?= results
+# pytest workers for `make test`: the project's machine has 2 cores and most tests are one
+# single-threaded simulation each (TEST_WORKERS=0 runs the suite in one process).
+TEST_WORKERS ?= 2
 
 .PHONY: main test bench install clean
 
@@ -27,7 +30,8 @@ main: install
 test: install
 	$(PY) -m ruff check .
 	$(VENV)/bin/lint-imports
-	$(PY) -m pytest
+	# --dist loadfile: a test file's module fixtures (a whole simulated run) are built once.
+	$(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 bench: install
 	$(PY) -m pytest -m slow
