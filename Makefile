@@ -4,7 +4,8 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 OUT ?= results
 # pytest workers for `make test`: the project's machine has 2 cores and most tests are one
-# single-threaded simulation each (TEST_WORKERS=0 runs the suite in one process).
+# single-threaded simulation each (TEST_WORKERS=0 runs the suite in one process). A test file goes
+# to one worker (--dist loadfile), so its module fixtures (a whole simulated run) are built once.
 TEST_WORKERS ?= 2
 
 .PHONY: main test bench install clean
@@ -30,7 +31,6 @@ main: install
 test: install
 	$(PY) -m ruff check .
 	$(VENV)/bin/lint-imports
-	# --dist loadfile: a test file's module fixtures (a whole simulated run) are built once.
 	$(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 bench: install
