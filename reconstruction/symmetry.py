@@ -13,9 +13,14 @@ A candidate transform ``x -> M x + t`` is judged by the images of all contacts:
   image's normal (within ``normal_cone_rad``) and within ``plane_tolerance_m`` of that contact's
   tangent plane;
 * *inconsistent*: such a contact is near but its tangent plane is not (a testable image that fails);
-* *outside*: the image lies more than ``hull_margin_m`` outside the contacts' convex hull;
+* *outside*: the image lies outside the contacts' convex hull by more than ``hull_margin_m`` and
+  more than ``hull_gap_fraction`` of the gap it lies in front of (the smaller of its hull facet's
+  circumradius and the distance from its foot on the facet to the third nearest contact): between
+  sparse contacts a curved surface bulges out of the hull, a bowl's wall 5-11 mm at 100 contacts;
 * *free*: the GPIS mean at the image is deeper than ``free_depth_m`` in free space or in solid
-  (a mug's handle turned about the cup's axis lands in free space).
+  (a mug's handle turned about the cup's axis lands in free space), and deeper than
+  ``free_confidence`` posterior standard deviations: where no contact is near, the plain mean is
+  itself the phantom the images correct (a bowl's rim), and says nothing against them.
 
 Accepted when at least ``min_consistent`` of the images are consistent, at most
 ``max_inconsistent`` are inconsistent and ``min_consistent_share`` of the testable ones are
@@ -65,7 +70,9 @@ class SymmetrySettings:
     (the middle one also judges); ``normal_cone_rad``: how far the image's and the contact's
     normals may differ; ``min_consistent`` ... ``max_free``: the acceptance shares of the module
     docstring, with ``hull_margin_m`` and ``free_depth_m`` their distances; ``directions`` /
-    ``starts``: plane normals scored on a hemisphere and how many are refined; ``axis_starts``:
+    ``starts``: plane normals scored on a hemisphere and how many are refined; ``hull_gap_fraction``
+    and ``free_confidence``: how far beyond the sag between contacts an image counts as outside, and
+    how many posterior standard deviations deep in free space it counts as free; ``axis_starts``:
     planes through a refused axis of revolution refined first; ``search_grid``: points per axis
     of the GPIS mean the search interpolates; ``rotations``: turns about an axis of revolution
     (360 / rotations apart); ``min_image_gap_m`` / ``max_images``: images kept
@@ -82,8 +89,10 @@ class SymmetrySettings:
     min_consistent_share: float = 0.97
     max_outside: float = 0.1
     hull_margin_m: float = 5e-3
+    hull_gap_fraction: float = 0.75
     max_free: float = 0.02
     free_depth_m: float = 4e-3
+    free_confidence: float = 2.5
     directions: int = 400
     starts: int = 12
     axis_starts: int = 3
@@ -239,10 +248,13 @@ class _ImageJudge:
         self.feature_axis = None
         self.cos_cone = np.cos(settings.normal_cone_rad)
         try:
-            self.hull = ConvexHull(points).equations
-            self.usable = True
+            hull = ConvexHull(points)
         except Exception:  # flat or degenerate contact sets: nothing to judge by
             self.hull, self.usable = None, False
+            return
+        self.hull, self.usable = hull.equations, True
+        corners = points[hull.simplices]
+        self.circumradius = np.linalg.norm(corners - corners.mean(axis=1, keepdims=True), axis=2).max(axis=1)
 
     def _residuals(self, transform: Transform, neighbours: int = 4):
         """(n, 3) the images, (n,) distance of each image to the tangent plane of the best agreeing
@@ -294,11 +306,26 @@ class _ImageJudge:
         free = 0.0
         if self.gpis is not None:
             lo, hi = self.gpis.region
-            f = self.gpis.mean(np.clip(q, lo, hi)).astype(float)
-            free = float(np.mean(np.abs(f) > self.s.free_depth_m))
+            inside_region = np.clip(q, lo, hi)
+            f = self.gpis.mean(inside_region).astype(float)
+            deep = np.abs(f) > self.s.free_depth_m
+            if deep.any():
+                std = np.sqrt(np.maximum(self.gpis.variance(inside_region[deep]), 0.0))
+                deep[deep] = np.abs(f[deep]) > self.s.free_confidence * std
+            free = float(np.mean(deep))
         return dict(testable=float(testable.mean()), consistent=float(consistent.mean()),
                     share=float(consistent.sum() / testable.sum()) if testable.any() else 0.0,
-                    outside=float(np.mean(outside > self.s.hull_margin_m)), free=free)
+                    outside=float(np.mean(self._beyond_the_sag(q, outside))), free=free)
+
+    def _beyond_the_sag(self, q: np.ndarray, outside: np.ndarray) -> np.ndarray:
+        """(n,) bool: each image lies outside the hull by more than ``hull_margin_m`` and more than
+        ``hull_gap_fraction`` of the gap in front of which it lies (module docstring)."""
+        signed = q @ self.hull[:, :3].T + self.hull[:, 3]
+        facet = np.argmax(signed, axis=1)
+        foot = q - outside[:, None] * self.hull[facet, :3]
+        third_nearest = self.tree.query(foot, k=min(3, len(self.points)))[0].reshape(len(q), -1)[:, -1]
+        gap = np.minimum(self.circumradius[facet], third_nearest)
+        return outside > np.maximum(self.s.hull_margin_m, self.s.hull_gap_fraction * gap)
 
     def accepts(self, transform: Transform) -> bool:
         f, s = self.fractions(transform), self.s

@@ -14,7 +14,7 @@ from scipy.spatial.transform import Rotation
 import objects
 from reconstruction.gpis import GPIS
 from reconstruction.metrics import surface_error
-from reconstruction.symmetry import Symmetry, find_symmetry, reflection, rotation
+from reconstruction.symmetry import Symmetry, SymmetrySettings, _ImageJudge, find_symmetry, reflection, rotation
 from reconstruction.synthetic_contacts import ContactNoise, sample_contacts
 
 
@@ -118,6 +118,23 @@ def test_a_handle_keeps_its_mirror_in_any_pose_and_with_noise(seed):
     u, d = found.planes[0]
     assert np.degrees(np.arccos(min(1.0, abs(u @ handle_plane)))) < 5.0  # a plane through the cup alone: 10-90
     assert abs(abs(d) - abs(handle_plane @ t)) < 2e-3
+
+
+@pytest.mark.parametrize("draw", [0, 1, 2])
+def test_a_sparsely_touched_bowls_images_are_neither_outside_nor_free(draw):
+    # 100 contacts on a 19 cm bowl lie about 3 cm apart: its wall bulges 5-11 mm out of their hull,
+    # and the plain GPIS mean is 4-5 mm off at the rim, where it is uncertain. The true symmetry's
+    # images land there; counted as outside or free (15-22 % and 3-7 % of them) they refused it.
+    bowl = objects.load("generated:bowl/0").mesh  # a surface of revolution about z through 0
+    points, normals, _, _ = sample_contacts(bowl, 100, seed=100 + draw)
+    gpis = GPIS(bounds=_bounds(bowl)).fit(points, normals)
+    settings = SymmetrySettings()
+    judge = _ImageJudge(points, normals / np.linalg.norm(normals, axis=1, keepdims=True), gpis, settings)
+    for transform in (rotation([0.0, 0.0, 1.0], np.zeros(3), np.pi / 2), reflection(np.array([0.0, 1.0, 0.0]), 0.0)):
+        shares = judge.fractions(transform)
+        assert shares["outside"] <= settings.max_outside
+        assert shares["free"] <= settings.max_free
+    assert find_symmetry(points, normals, gpis).kind != "none"
 
 
 def test_too_few_contacts_say_nothing():
