@@ -56,6 +56,7 @@ from scipy.spatial import ConvexHull, cKDTree
 from scipy.spatial.transform import Rotation
 
 from common.directions import fibonacci_directions, perpendicular_frame
+from reconstruction.outside_evidence import DEFAULT_FACET_FRACTION, DEFAULT_LOCAL_NEIGHBOURS
 
 #: A rigid map ``x -> M @ x + t``: (M (3, 3), t (3,)), object frame, metres.
 Transform = tuple[np.ndarray, np.ndarray]
@@ -89,7 +90,7 @@ class SymmetrySettings:
     min_consistent_share: float = 0.97
     max_outside: float = 0.1
     hull_margin_m: float = 5e-3
-    hull_gap_fraction: float = 0.75
+    hull_gap_fraction: float = DEFAULT_FACET_FRACTION
     max_free: float = 0.02
     free_depth_m: float = 4e-3
     free_confidence: float = 2.5
@@ -258,7 +259,8 @@ class _ImageJudge:
 
     def _residuals(self, transform: Transform, neighbours: int = 4):
         """(n, 3) the images, (n,) distance of each image to the tangent plane of the best agreeing
-        contact within the match radius (inf: none near), and (n,) its distance outside the hull."""
+        contact within the match radius (inf: none near), (n,) its distance outside the hull and
+        (n,) int the hull facet it lies farthest in front of."""
         m, t = transform
         q, qn = self.points @ m.T + t, self.normals @ m.T
         dist, idx = self.tree.query(q, k=neighbours, distance_upper_bound=self.s.match_radius_m)
@@ -268,15 +270,16 @@ class _ImageJudge:
         agrees = near & (np.einsum("ikj,ij->ik", contact_normals, qn) > self.cos_cone)
         off_plane = np.abs(np.einsum("ikj,ikj->ik", q[:, None, :] - self.points[idx], contact_normals))
         residual = np.min(np.where(agrees, off_plane, np.inf), axis=1)
-        outside = np.max(q @ self.hull[:, :3].T + self.hull[:, 3], axis=1)
-        return q, residual, outside
+        signed = q @ self.hull[:, :3].T + self.hull[:, 3]
+        facet = np.argmax(signed, axis=1)
+        return q, residual, signed[np.arange(len(q)), facet], facet
 
     def soft_score(self, transform: Transform, tolerance_m: float | None = None) -> float:
         """Smooth score for the search: Gaussian agreement minus inconsistent, outside and free
         images (the last from the GPIS mean interpolated on a grid: a mug's handle decides between
         vertical planes that all fit its cup)."""
         tolerance = tolerance_m or self.s.plane_tolerance_m
-        q, residual, outside = self._residuals(transform)
+        q, residual, outside, _ = self._residuals(transform)
         testable = np.isfinite(residual)
         agreement = np.where(testable, np.exp(-0.5 * (np.where(testable, residual, 0.0) / tolerance) ** 2), 0.0)
         inconsistent = testable & (residual >= max(tolerance, self.s.plane_tolerance_m))
@@ -300,7 +303,7 @@ class _ImageJudge:
 
     def fractions(self, transform: Transform) -> dict:
         """Shares of the images: testable, consistent, outside the hull, in free space or solid."""
-        q, residual, outside = self._residuals(transform)
+        q, residual, outside, facet = self._residuals(transform)
         testable = np.isfinite(residual)
         consistent = testable & (residual < self.s.plane_tolerance_m)
         free = 0.0
@@ -315,16 +318,16 @@ class _ImageJudge:
             free = float(np.mean(deep))
         return dict(testable=float(testable.mean()), consistent=float(consistent.mean()),
                     share=float(consistent.sum() / testable.sum()) if testable.any() else 0.0,
-                    outside=float(np.mean(self._beyond_the_sag(q, outside))), free=free)
+                    outside=float(np.mean(self._beyond_the_sag(q, outside, facet))), free=free)
 
-    def _beyond_the_sag(self, q: np.ndarray, outside: np.ndarray) -> np.ndarray:
+    def _beyond_the_sag(self, q: np.ndarray, outside: np.ndarray, facet: np.ndarray) -> np.ndarray:
         """(n,) bool: each image lies outside the hull by more than ``hull_margin_m`` and more than
-        ``hull_gap_fraction`` of the gap in front of which it lies (module docstring)."""
-        signed = q @ self.hull[:, :3].T + self.hull[:, 3]
-        facet = np.argmax(signed, axis=1)
+        ``hull_gap_fraction`` of the gap in front of which it lies (module docstring; the gap as the
+        outside evidence measures it)."""
         foot = q - outside[:, None] * self.hull[facet, :3]
-        third_nearest = self.tree.query(foot, k=min(3, len(self.points)))[0].reshape(len(q), -1)[:, -1]
-        gap = np.minimum(self.circumradius[facet], third_nearest)
+        k = min(DEFAULT_LOCAL_NEIGHBOURS, len(self.points))
+        nearest = self.tree.query(foot, k=k)[0].reshape(len(q), k)[:, -1]
+        gap = np.minimum(self.circumradius[facet], nearest)
         return outside > np.maximum(self.s.hull_margin_m, self.s.hull_gap_fraction * gap)
 
     def accepts(self, transform: Transform) -> bool:
