@@ -130,10 +130,12 @@ def test_a_sparsely_touched_bowls_images_are_neither_outside_nor_free(draw):
     gpis = GPIS(bounds=_bounds(bowl)).fit(points, normals)
     settings = SymmetrySettings()
     judge = _ImageJudge(points, normals / np.linalg.norm(normals, axis=1, keepdims=True), gpis, settings)
-    for transform in (rotation([0.0, 0.0, 1.0], np.zeros(3), np.pi / 2), reflection(np.array([0.0, 1.0, 0.0]), 0.0)):
-        shares = judge.fractions(transform)
-        assert shares["outside"] <= settings.max_outside
-        assert shares["free"] <= settings.max_free
+    # Bounds with a few images' margin either way (before: outside 0.07-0.18, free 0.035-0.05 mean;
+    # now at most 0.02 and 0.01), so that one image judged otherwise on another CPU changes nothing.
+    shares = [judge.fractions(transform) for transform in (rotation([0.0, 0.0, 1.0], np.zeros(3), np.pi / 2),
+                                                           reflection(np.array([0.0, 1.0, 0.0]), 0.0))]
+    assert max(share["outside"] for share in shares) <= settings.max_outside / 2
+    assert np.mean([share["free"] for share in shares]) <= settings.max_free
     assert find_symmetry(points, normals, gpis).kind != "none"
 
 
