@@ -24,8 +24,12 @@ A candidate transform ``x -> M x + t`` is judged by the images of all contacts:
 
 Accepted when at least ``min_consistent`` of the images are consistent, at most
 ``max_inconsistent`` are inconsistent and ``min_consistent_share`` of the testable ones are
-consistent, and at most ``max_outside`` / ``max_free`` lie outside / in free space. The defaults
-were chosen on the generated tuning split (BENCHMARKS.md).
+consistent, at most ``max_outside`` lie outside, and at most ``max_free`` lie in free space, or as
+large a share as the GPIS puts of the contacts themselves, each left out
+(:meth:`reconstruction.gpis.GPIS.leave_one_out`): images of a true symmetry are points of the
+surface the GPIS has not seen, and a field that misplaces its own contacts by several millimetres (thin
+walls touched through the loop) misplaces them as often. The defaults were chosen on the
+generated tuning split (BENCHMARKS.md).
 
 Search. An axis of revolution first: every normal line of a surface of revolution meets its axis,
 so the axis is fitted to the contacts' normal lines (robust least squares over a hemisphere of
@@ -205,7 +209,7 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
         if all(judge.accepts(rotation(direction, point, np.radians(a))) for a in (37.0, 90.0)):
             return _revolution(judge, direction, point, centre, settings)
         through_axis, typical_free = _planes_through_axis(judge, direction, point, settings)
-        if typical_free > settings.max_free:
+        if typical_free > judge.free_allowance:
             # A feature refused the axis (the planes through it put its images in free space): a
             # plane through the axis is its mirror only if it halves that share (a plane 10 deg off
             # a mug's handle still passes max_free).
@@ -248,6 +252,7 @@ class _ImageJudge:
         self._depth_grid = None
         self.feature_axis = None
         self.cos_cone = np.cos(settings.normal_cone_rad)
+        self.free_allowance = settings.max_free if gpis is None else max(settings.max_free, self._contacts_free_share())
         try:
             hull = ConvexHull(points)
         except Exception:  # flat or degenerate contact sets: nothing to judge by
@@ -256,6 +261,13 @@ class _ImageJudge:
         self.hull, self.usable = hull.equations, True
         corners = points[hull.simplices]
         self.circumradius = np.linalg.norm(corners - corners.mean(axis=1, keepdims=True), axis=2).max(axis=1)
+
+    def _contacts_free_share(self) -> float:
+        """The share of the contacts themselves the GPIS puts in free space or solid by the images'
+        rule when each is left out (:meth:`GPIS.leave_one_out`): the images of a true symmetry are
+        points of the same surface the GPIS has not seen, so they may be judged free as often."""
+        mean, std = self.gpis.leave_one_out()
+        return float(np.mean((np.abs(mean) > self.s.free_depth_m) & (np.abs(mean) > self.s.free_confidence * std)))
 
     def _residuals(self, transform: Transform, neighbours: int = 4):
         """(n, 3) the images, (n,) distance of each image to the tangent plane of the best agreeing
@@ -334,7 +346,7 @@ class _ImageJudge:
         f, s = self.fractions(transform), self.s
         return (f["consistent"] >= s.min_consistent and f["testable"] - f["consistent"] <= s.max_inconsistent
                 and f["share"] >= s.min_consistent_share and f["outside"] <= s.max_outside
-                and f["free"] <= min(s.max_free, self._free_limit(transform)))
+                and f["free"] <= min(self.free_allowance, self._free_limit(transform)))
 
     def _free_limit(self, transform: Transform) -> float:
         """The free-space share allowed: half the typical one for a mirror containing the axis a

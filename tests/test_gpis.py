@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from reconstruction.gpis import GPIS
+from reconstruction.kernels import make_kernel
 from reconstruction.synthetic_contacts import sphere_contacts as exact_sphere_contacts
 
 RADIUS = 0.05
@@ -498,3 +499,33 @@ def test_a_doubtful_contact_on_a_thin_wall_is_tightened_only_when_the_opposing_r
     floored = GPIS(bounds=BOUNDS)
     floored.add(points[0], normals[0], normal_noise=0.5)
     np.testing.assert_allclose(lone.mean(x), floored.mean(x), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("kernel", ["thin_plate", "thin_plate_reference"])  # Cholesky and LU
+def test_leave_one_out_is_a_refit_without_the_contact(kernel):
+    # Against the independent answer: a GPIS fitted to the other contacts (and the same free-space
+    # rows), queried at the contact left out. An ellipsoid, so no contact has an opposing
+    # neighbour whose noise would change without it. One kernel object for both, since a named
+    # kernel's radius follows the contacts' spread.
+    points, normals = sphere_contacts(24, seed=3)
+    points, normals = points * [1.0, 0.8, 0.6], normals / [1.0, 0.8, 0.6]
+    free = np.array([[0.07, 0.0, 0.0], [0.0, 0.07, 0.02]])
+    kernel = make_kernel(kernel, float(np.linalg.norm(np.subtract(BOUNDS[1], BOUNDS[0]))), 0.1)
+    gp = GPIS(kernel=kernel, bounds=BOUNDS).fit(points, normals).add_values(free, np.array([-0.02, -0.03]))
+    mean, std = gp.leave_one_out()
+    assert mean.shape == std.shape == (24,)
+    for i in (0, 11, 23):
+        others = np.arange(24) != i
+        refit = GPIS(kernel=kernel, bounds=BOUNDS).fit(points[others], normals[others])
+        refit.add_values(free, np.array([-0.02, -0.03]))
+        refit._weights_table()  # the posterior weights in float64 (``mean`` is float32)
+        exact = float(refit.cross_covariance(points[i:i + 1])[:, 0] @ refit._alpha)
+        assert mean[i] == pytest.approx(exact, rel=1e-6, abs=1e-12)
+        assert std[i] == pytest.approx(np.sqrt(refit.variance(points[i:i + 1])[0]), rel=1e-6)
+    assert np.abs(mean).max() > 1e-5  # left out, a contact is no longer pinned to f = 0
+
+
+def test_leave_one_out_needs_normals():
+    points, _ = sphere_contacts(20)
+    with pytest.raises(ValueError, match="normals"):
+        GPIS(use_normals=False, bounds=BOUNDS).fit(points).leave_one_out()
