@@ -209,7 +209,7 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
         if all(judge.accepts(rotation(direction, point, np.radians(a))) for a in (37.0, 90.0)):
             return _revolution(judge, direction, point, centre, settings)
         through_axis, typical_free = _planes_through_axis(judge, direction, point, settings)
-        if typical_free > judge.free_allowance:
+        if typical_free > settings.max_free:
             # A feature refused the axis (the planes through it put its images in free space): a
             # plane through the axis is its mirror only if it halves that share (a plane 10 deg off
             # a mug's handle still passes max_free).
