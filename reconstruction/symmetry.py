@@ -27,9 +27,9 @@ Accepted when at least ``min_consistent`` of the images are consistent, at most
 consistent, at most ``max_outside`` lie outside, and at most ``max_free`` lie in free space, or as
 large a share as the GPIS puts of the contacts themselves, each left out
 (:meth:`reconstruction.gpis.GPIS.leave_one_out`): images of a true symmetry are points of the
-surface the GPIS has not seen, and a field that misplaces its own contacts by several millimetres (thin
-walls touched through the loop) misplaces them as often. The defaults were chosen on the
-generated tuning split (BENCHMARKS.md).
+surface the GPIS has not seen, and a field that misplaces its own contacts by several
+millimetres (thin walls touched through the loop) misplaces them as often. The defaults were
+chosen on the generated tuning split (BENCHMARKS.md).
 
 Search. An axis of revolution first: every normal line of a surface of revolution meets its axis,
 so the axis is fitted to the contacts' normal lines (robust least squares over a hemisphere of
@@ -252,7 +252,7 @@ class _ImageJudge:
         self._depth_grid = None
         self.feature_axis = None
         self.cos_cone = np.cos(settings.normal_cone_rad)
-        self.free_allowance = settings.max_free if gpis is None else max(settings.max_free, self._contacts_free_share())
+        self.free_allowance = settings.max_free
         try:
             hull = ConvexHull(points)
         except Exception:  # flat or degenerate contact sets: nothing to judge by
@@ -261,6 +261,8 @@ class _ImageJudge:
         self.hull, self.usable = hull.equations, True
         corners = points[hull.simplices]
         self.circumradius = np.linalg.norm(corners - corners.mean(axis=1, keepdims=True), axis=2).max(axis=1)
+        if gpis is not None and gpis.use_normals:
+            self.free_allowance = max(settings.max_free, self._contacts_free_share())
 
     def _contacts_free_share(self) -> float:
         """The share of the contacts themselves the GPIS puts in free space or solid by the images'
