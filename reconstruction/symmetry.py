@@ -58,6 +58,7 @@ from scipy.ndimage import map_coordinates
 from scipy.optimize import minimize
 from scipy.spatial import ConvexHull, cKDTree
 from scipy.spatial.transform import Rotation
+from scipy.stats import binom
 
 from common.directions import fibonacci_directions, perpendicular_frame
 from reconstruction.outside_evidence import DEFAULT_FACET_FRACTION, DEFAULT_LOCAL_NEIGHBOURS
@@ -77,7 +78,9 @@ class SymmetrySettings:
     docstring, with ``hull_margin_m`` and ``free_depth_m`` their distances; ``directions`` /
     ``starts``: plane normals scored on a hemisphere and how many are refined; ``hull_gap_fraction``
     and ``free_confidence``: how far beyond the sag between contacts an image counts as outside, and
-    how many posterior standard deviations deep in free space it counts as free; ``axis_starts``:
+    how many posterior standard deviations deep in free space it counts as free;
+    ``misplaced_significance``: how unlikely by chance the share of its own contacts the GPIS
+    misplaces must be before the images may be free as often; ``axis_starts``:
     planes through a refused axis of revolution refined first; ``search_grid``: points per axis
     of the GPIS mean the search interpolates; ``rotations``: turns about an axis of revolution
     (360 / rotations apart); ``min_image_gap_m`` / ``max_images``: images kept
@@ -98,6 +101,7 @@ class SymmetrySettings:
     max_free: float = 0.02
     free_depth_m: float = 4e-3
     free_confidence: float = 2.5
+    misplaced_significance: float = 0.05
     directions: int = 400
     starts: int = 12
     axis_starts: int = 3
@@ -267,9 +271,15 @@ class _ImageJudge:
     def _contacts_free_share(self) -> float:
         """The share of the contacts themselves the GPIS puts in free space or solid by the images'
         rule when each is left out (:meth:`GPIS.leave_one_out`): the images of a true symmetry are
-        points of the same surface the GPIS has not seen, so they may be judged free as often."""
+        points of the same surface the GPIS has not seen, so they may be judged free as often. Zero
+        unless more contacts are misplaced than ``max_free`` of them would be by chance (a one-sided
+        binomial test at ``misplaced_significance``): one misplaced contact among 46 says nothing."""
         mean, std = self.gpis.leave_one_out()
-        return float(np.mean((np.abs(mean) > self.s.free_depth_m) & (np.abs(mean) > self.s.free_confidence * std)))
+        misplaced = (np.abs(mean) > self.s.free_depth_m) & (np.abs(mean) > self.s.free_confidence * std)
+        k, n = int(misplaced.sum()), len(misplaced)
+        if k == 0 or binom.sf(k - 1, n, self.s.max_free) > self.s.misplaced_significance:
+            return 0.0
+        return k / n
 
     def _residuals(self, transform: Transform, neighbours: int = 4):
         """(n, 3) the images, (n,) distance of each image to the tangent plane of the best agreeing

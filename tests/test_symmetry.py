@@ -165,6 +165,24 @@ def test_a_field_that_misplaces_its_own_contacts_does_not_refuse_a_true_symmetry
     assert abs(found.axis[1][2]) > np.cos(np.radians(3.0))
 
 
+@pytest.mark.parametrize("misplaced, contacts, raised", [(1, 46, False), (3, 100, False), (4, 67, True), (14, 67, True)])
+def test_the_allowance_rises_only_when_more_contacts_are_misplaced_than_chance_gives(misplaced, contacts, raised):
+    # One left-out contact of 46 deep in free space is what a 2 % rate gives by chance (binomial
+    # tail 0.61); 4 of 67 is not (0.046). Only then may the images be free as often.
+    class LeftOut:  # a GPIS as the judge reads it: its contacts left out, misplaced ones 6 mm deep
+        use_normals = True
+
+        def leave_one_out(self):
+            mean = np.zeros(contacts)
+            mean[:misplaced] = -6e-3
+            return mean, np.full(contacts, 1e-3)
+
+    points = np.random.default_rng(0).normal(scale=0.05, size=(contacts, 3))
+    settings = SymmetrySettings()
+    judge = _ImageJudge(points, points / np.linalg.norm(points, axis=1, keepdims=True), LeftOut(), settings)
+    assert judge.free_allowance == (misplaced / contacts if raised else settings.max_free)
+
+
 def test_a_field_that_misplaces_its_own_contacts_keeps_the_handles_rule():
     # What the loop made on the held-out mug (generated:mug/1000, seed 2): 77 contacts and 8
     # free-space rows, the field rebuilt as above. It misplaces a tenth of its own contacts, so
