@@ -140,6 +140,19 @@ def test_a_sparsely_touched_bowls_images_are_neither_outside_nor_free(draw):
     assert find_symmetry(points, normals, gpis).kind != "none"
 
 
+def _recorded_loop_field(name, half_extent_m):
+    """The contacts (unit normals) a loop run recorded and its reconstruction field rebuilt from them
+    and the field's free-space rows (``tests/data/NAME``), both faces of a thin wall tightened with
+    a gain of 3 as ``LoopConfig.reconstruction_wall_gain`` does; the box is +-``half_extent_m``."""
+    data = np.load(Path(__file__).parent / "data" / name)
+    contacts, free = data["contacts"].astype(float), data["free"].astype(float)
+    points, normals = contacts[:, :3], contacts[:, 3:] / np.linalg.norm(contacts[:, 3:], axis=1, keepdims=True)
+    half = np.asarray(half_extent_m)
+    gpis = GPIS(bounds=(-half, half), opposing_gradient_gain=3.0).fit(points, normals)
+    gpis.add_values(free[:, :3], free[:, 3], 0.004)
+    return points, normals, gpis
+
+
 def test_a_field_that_misplaces_its_own_contacts_does_not_refuse_a_true_symmetry_for_it():
     # What the loop made on the tuning bowl (generated:bowl/0, variance strategy, seed 1, 100
     # touches): its 67 contacts and the 19 free-space rows of its reconstruction field, which
@@ -147,14 +160,9 @@ def test_a_field_that_misplaces_its_own_contacts_does_not_refuse_a_true_symmetry
     # That field misplaces a fifth of its own contacts, each left out, by more than the images'
     # free rule; it put 3 images of the true quarter turn in free space, and the 2 % limit refused
     # the bowl's revolution (2.86 mm with the one mirror found instead of 1.20 mm).
-    data = np.load(Path(__file__).parent / "data" / "bowl_loop_field.npz")
-    contacts, free = data["contacts"].astype(float), data["free"].astype(float)
-    points, normals = contacts[:, :3], contacts[:, 3:]
-    half = np.array([0.143, 0.143, 0.076])
-    gpis = GPIS(bounds=(-half, half), opposing_gradient_gain=3.0).fit(points, normals)
-    gpis.add_values(free[:, :3], free[:, 3], 0.004)
+    points, normals, gpis = _recorded_loop_field("bowl_loop_field.npz", [0.143, 0.143, 0.076])
     settings = SymmetrySettings()
-    judge = _ImageJudge(points, normals / np.linalg.norm(normals, axis=1, keepdims=True), gpis, settings)
+    judge = _ImageJudge(points, normals, gpis, settings)
     mean, std = gpis.leave_one_out()
     misplaced = np.mean((np.abs(mean) > settings.free_depth_m) & (np.abs(mean) > settings.free_confidence * std))
     assert judge.free_allowance == pytest.approx(misplaced) and misplaced > 4 * settings.max_free  # 0.21
@@ -189,14 +197,9 @@ def test_a_field_that_misplaces_its_own_contacts_keeps_the_handles_rule():
     # the images' free-space allowance rises; the planes through the cup's axis must still halve
     # their typical free share (a handle refused the axis), or a plane through the cup alone
     # mirrors the handle 19 mm off the truth.
-    data = np.load(Path(__file__).parent / "data" / "mug_loop_field.npz")
-    contacts, free = data["contacts"].astype(float), data["free"].astype(float)
-    points, normals = contacts[:, :3], contacts[:, 3:]
-    half = np.array([0.0793, 0.0665, 0.0823])
-    gpis = GPIS(bounds=(-half, half), opposing_gradient_gain=3.0).fit(points, normals)
-    gpis.add_values(free[:, :3], free[:, 3], 0.004)
+    points, normals, gpis = _recorded_loop_field("mug_loop_field.npz", [0.0793, 0.0665, 0.0823])
     settings = SymmetrySettings()
-    judge = _ImageJudge(points, normals / np.linalg.norm(normals, axis=1, keepdims=True), gpis, settings)
+    judge = _ImageJudge(points, normals, gpis, settings)
     assert judge.free_allowance > 2 * settings.max_free  # 0.10
     mug = objects.load("generated:mug/1000").mesh
     surface, _ = trimesh.sample.sample_surface(mug, 2000, seed=0)
