@@ -25,11 +25,11 @@ A candidate transform ``x -> M x + t`` is judged by the images of all contacts:
 Accepted when at least ``min_consistent`` of the images are consistent, at most
 ``max_inconsistent`` are inconsistent and ``min_consistent_share`` of the testable ones are
 consistent, at most ``max_outside`` lie outside, and at most ``max_free`` lie in free space, or as
-large a share as the GPIS puts of the contacts themselves, each left out
-(:meth:`reconstruction.gpis.GPIS.leave_one_out`): images of a true symmetry are points of the
-surface the GPIS has not seen, and a field that misplaces its own contacts by several
-millimetres (thin walls touched through the loop) misplaces them as often. The defaults were
-chosen on the generated tuning split (BENCHMARKS.md).
+large a share as the GPIS puts of the contacts themselves, each left out, when that is more than
+chance at ``max_free`` gives (:meth:`reconstruction.gpis.GPIS.leave_one_out`): images of a true
+symmetry are points of the surface the GPIS has not seen, and a field that misplaces its own
+contacts by several millimetres (thin walls touched through the loop) misplaces them as often.
+The defaults were chosen on the generated tuning split (BENCHMARKS.md).
 
 Search. An axis of revolution first: every normal line of a surface of revolution meets its axis,
 so the axis is fitted to the contacts' normal lines (robust least squares over a hemisphere of
