@@ -274,12 +274,16 @@ class _ImageJudge:
         points of the same surface the GPIS has not seen, so they may be judged free as often. Zero
         unless more contacts are misplaced than ``max_free`` of them would be by chance (a one-sided
         binomial test at ``misplaced_significance``): one misplaced contact among 46 says nothing."""
-        mean, std = self.gpis.leave_one_out()
-        misplaced = (np.abs(mean) > self.s.free_depth_m) & (np.abs(mean) > self.s.free_confidence * std)
+        misplaced = self._deep(*self.gpis.leave_one_out())
         k, n = int(misplaced.sum()), len(misplaced)
         if k == 0 or binom.sf(k - 1, n, self.s.max_free) > self.s.misplaced_significance:
             return 0.0
         return k / n
+
+    def _deep(self, mean: np.ndarray, std: np.ndarray) -> np.ndarray:
+        """(n,) bool: the GPIS mean puts these points (an image, or a contact left out) in free
+        space or solid, deeper than ``free_depth_m`` and ``free_confidence`` posterior stds."""
+        return (np.abs(mean) > self.s.free_depth_m) & (np.abs(mean) > self.s.free_confidence * std)
 
     def _residuals(self, transform: Transform, neighbours: int = 4):
         """(n, 3) the images, (n,) distance of each image to the tangent plane of the best agreeing
@@ -338,7 +342,7 @@ class _ImageJudge:
             deep = np.abs(f) > self.s.free_depth_m
             if deep.any():
                 std = np.sqrt(np.maximum(self.gpis.variance(inside_region[deep]), 0.0))
-                deep[deep] = np.abs(f[deep]) > self.s.free_confidence * std
+                deep[deep] = self._deep(f[deep], std)
             free = float(np.mean(deep))
         return dict(testable=float(testable.mean()), consistent=float(consistent.mean()),
                     share=float(consistent.sum() / testable.sum()) if testable.any() else 0.0,
