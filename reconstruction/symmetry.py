@@ -24,7 +24,9 @@ A candidate transform ``x -> M x + t`` is judged by the images of all contacts:
 
 Accepted when at least ``min_consistent`` of the images are consistent, at most
 ``max_inconsistent`` are inconsistent and ``min_consistent_share`` of the testable ones are
-consistent, at most ``max_outside`` lie outside, and at most ``max_free`` lie in free space, or as
+consistent (or no more than ``consistency_exceptions`` are not: with the 20-33 testable images of
+60-100 contacts, 97 % allows none, and one image 8 mm from a contact whose normal is 9 deg off, the
+loop's typical error, misses its tangent plane by 1.3 mm), at most ``max_outside`` lie outside, and at most ``max_free`` lie in free space, or as
 large a share as the GPIS puts of the contacts themselves, each left out, when that is more than
 chance at ``max_free`` gives (:meth:`reconstruction.gpis.GPIS.leave_one_out`): images of a true
 symmetry are points of the surface the GPIS has not seen, and a field that misplaces its own
@@ -79,6 +81,7 @@ class SymmetrySettings:
     ``starts``: plane normals scored on a hemisphere and how many are refined; ``hull_gap_fraction``
     and ``free_confidence``: how far beyond the sag between contacts an image counts as outside, and
     how many posterior standard deviations deep in free space it counts as free;
+    ``consistency_exceptions``: inconsistent testable images allowed whatever their share;
     ``misplaced_significance``: how unlikely by chance the share of its own contacts the GPIS
     misplaces must be before the images may be free as often; ``axis_starts``:
     planes through a refused axis of revolution refined first; ``search_grid``: points per axis
@@ -95,6 +98,7 @@ class SymmetrySettings:
     min_consistent: float = 0.1
     max_inconsistent: float = 0.05
     min_consistent_share: float = 0.97
+    consistency_exceptions: int = 1
     max_outside: float = 0.1
     hull_margin_m: float = 5e-3
     hull_gap_fraction: float = DEFAULT_FACET_FRACTION
@@ -330,7 +334,8 @@ class _ImageJudge:
         return map_coordinates(self._depth_grid, index.T, order=1, mode="nearest")
 
     def fractions(self, transform: Transform) -> dict:
-        """Shares of the images: testable, consistent, outside the hull, in free space or solid."""
+        """Shares of the images: testable, consistent, outside the hull, in free space or solid;
+        and ``inconsistent_count``, the testable images that are not consistent."""
         q, residual, outside, facet = self._residuals(transform)
         testable = np.isfinite(residual)
         consistent = testable & (residual < self.s.plane_tolerance_m)
@@ -346,6 +351,7 @@ class _ImageJudge:
             free = float(np.mean(deep))
         return dict(testable=float(testable.mean()), consistent=float(consistent.mean()),
                     share=float(consistent.sum() / testable.sum()) if testable.any() else 0.0,
+                    inconsistent_count=int(np.sum(testable & ~consistent)),
                     outside=float(np.mean(self._beyond_the_sag(q, outside, facet))), free=free)
 
     def _beyond_the_sag(self, q: np.ndarray, outside: np.ndarray, facet: np.ndarray) -> np.ndarray:
@@ -361,7 +367,8 @@ class _ImageJudge:
     def accepts(self, transform: Transform) -> bool:
         f, s = self.fractions(transform), self.s
         return (f["consistent"] >= s.min_consistent and f["testable"] - f["consistent"] <= s.max_inconsistent
-                and f["share"] >= s.min_consistent_share and f["outside"] <= s.max_outside
+                and (f["share"] >= s.min_consistent_share or f["inconsistent_count"] <= s.consistency_exceptions)
+                and f["outside"] <= s.max_outside
                 and f["free"] <= min(self.free_allowance, self._free_limit(transform)))
 
     def _free_limit(self, transform: Transform) -> float:
