@@ -26,12 +26,13 @@ Accepted when at least ``min_consistent`` of the images are consistent, at most
 ``max_inconsistent`` are inconsistent and ``min_consistent_share`` of the testable ones are
 consistent (or no more than ``consistency_exceptions`` are not: with the 20-33 testable images of
 60-100 contacts, 97 % allows none, and one image 8 mm from a contact whose normal is 9 deg off, the
-loop's typical error, misses its tangent plane by 1.3 mm), at most ``max_outside`` lie outside, and at most ``max_free`` lie in free space, or as
-large a share as the GPIS puts of the contacts themselves, each left out, when that is more than
-chance at ``max_free`` gives (:meth:`reconstruction.gpis.GPIS.leave_one_out`): images of a true
-symmetry are points of the surface the GPIS has not seen, and a field that misplaces its own
-contacts by several millimetres (thin walls touched through the loop) misplaces them as often.
-The defaults were chosen on the generated tuning split (BENCHMARKS.md).
+loop's typical error, misses its tangent plane by 1.3 mm), at most ``max_outside`` lie outside, and
+at most ``max_free`` lie in free space, or as large a share as the GPIS puts of the contacts
+themselves, each left out, when that is more than chance at ``max_free`` gives
+(:meth:`reconstruction.gpis.GPIS.leave_one_out`): images of a true symmetry are points of the
+surface the GPIS has not seen, and a field that misplaces its own contacts by several millimetres
+(thin walls touched through the loop) misplaces them as often. The defaults were chosen on the
+generated tuning split (BENCHMARKS.md).
 
 Search. An axis of revolution first: every normal line of a surface of revolution meets its axis,
 so the axis is fitted to the contacts' normal lines (robust least squares over a hemisphere of
