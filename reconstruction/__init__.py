@@ -15,7 +15,8 @@ Public API:
   default);
 * :func:`find_symmetry` (-> :class:`Symmetry`, settings :class:`SymmetrySettings`): mirror planes
   or an axis of revolution the contacts support, whose images of the contacts fill sampling gaps
-  (``GPIS.mesh(symmetry=True)``);
+  (``GPIS.mesh(symmetry=True)``), less the images the hull and the GPIS both put off the surface
+  (:func:`contradicted_images`);
 * metrics: :func:`surface_error` (-> :class:`SurfaceError`), :func:`shape_metrics`,
   :func:`point_cloud_metrics` (-> :class:`ShapeMetrics`: Chamfer, F-score, normal consistency),
   :func:`contact_coverage`, :func:`recess_error` (-> :class:`RecessError`: the insides against the
@@ -47,6 +48,7 @@ _LAZY = {
     "Symmetry": "reconstruction.symmetry",
     "SymmetrySettings": "reconstruction.symmetry",
     "find_symmetry": "reconstruction.symmetry",
+    "contradicted_images": "reconstruction.symmetry",
     "SurfaceError": "reconstruction.metrics",
     "Topology": "reconstruction.topology",
     "surface_topology": "reconstruction.topology",

@@ -443,11 +443,17 @@ class GPIS:
 
     def _with_symmetric_images(self, found) -> "GPIS":
         """A copy observing the contacts' images under ``found`` as contacts, or this GPIS if none.
-        Images outside the GPIS's region are not used (they are inferred, not measured)."""
+        Images outside the GPIS's region are not used (they are inferred, not measured), nor those
+        both the contacts' hull and this GPIS's mean put off the surface
+        (:func:`reconstruction.symmetry.contradicted_images`: a feature a near symmetry copies)."""
+        from reconstruction.symmetry import contradicted_images
+
         points, normals = self.contact_points, self.contact_normals
         images, image_normals = found.images(points, normals)
         lo, hi = self.region
         inside = np.all((images > lo) & (images < hi), axis=1)
+        if inside.any():
+            inside[inside] = ~contradicted_images(self, images[inside])
         if not inside.any():
             return self
         model = copy.deepcopy(self)

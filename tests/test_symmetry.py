@@ -16,7 +16,8 @@ from scipy.spatial.transform import Rotation
 import objects
 from reconstruction.gpis import GPIS
 from reconstruction.metrics import surface_error
-from reconstruction.symmetry import Symmetry, SymmetrySettings, _ImageJudge, find_symmetry, reflection, rotation
+from reconstruction.symmetry import (Symmetry, SymmetrySettings, _ImageJudge, contradicted_images, find_symmetry, reflection,
+                                     rotation)
 from reconstruction.synthetic_contacts import ContactNoise, sample_contacts
 
 
@@ -266,6 +267,58 @@ def test_the_mesh_with_symmetry_fills_gaps_and_leaves_the_gpis_alone():
     symmetric = surface_error(gp.mesh(resolution=48, symmetry=True), vase).position_rmse_mm
     assert np.array_equal(gp.mean(probe), before) and gp.n_contacts == 80
     assert symmetric < 0.8 * plain
+
+
+def _sphere_with_a_stem():
+    """A 40 mm sphere about the origin with a stem (4 mm radius) up to z = 65 mm: the mirror z = 0
+    maps all of it onto itself but the stem, a fruit's near symmetry."""
+    stem = trimesh.creation.cylinder(radius=0.004, height=0.03)
+    stem.apply_translation([0.0, 0.0, 0.05])
+    return trimesh.boolean.union([trimesh.creation.icosphere(subdivisions=4, radius=0.04), stem])
+
+
+_TOP_BOTTOM = Symmetry((reflection(np.array([0.0, 0.0, 1.0]), 0.0),), ((np.array([0.0, 0.0, 1.0]), 0.0),), None)
+
+
+def test_images_are_contradicted_only_outside_the_hull_and_deep_in_free_space():
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=0.04)
+    points, normals, _, _ = sample_contacts(sphere, 200, noise=ContactNoise.off(), seed=1)
+    gp = GPIS(bounds=_bounds(sphere)).fit(points, normals)
+    d = np.random.default_rng(0).normal(size=(100, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    assert not contradicted_images(gp, 0.04 * d).any()          # on the surface
+    assert contradicted_images(gp, 0.065 * d).all()             # 25 mm out: beyond the hull, free
+    assert not contradicted_images(gp, 0.02 * d).any()          # deep in solid, but inside the hull
+    assert not contradicted_images(gp, np.zeros((0, 3))).any()
+
+
+def test_images_of_the_hemisphere_left_untouched_are_not_contradicted():
+    # outside the hull alone is no contradiction: the mean does not put them deep in free space
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=0.04)
+    points, normals, _, _ = sample_contacts(sphere, 300, noise=ContactNoise.off(), seed=2)
+    upper = points[:, 2] > 0.01
+    gp = GPIS(bounds=_bounds(sphere)).fit(points[upper], normals[upper])
+    images, _ = _TOP_BOTTOM.images(gp.contact_points, gp.contact_normals)
+    judge = _ImageJudge(gp.contact_points, gp.contact_normals, None, SymmetrySettings())
+    outside = judge.fractions(reflection(np.array([0.0, 0.0, 1.0]), 0.0))["outside"]
+    assert outside > 0.5                                         # most images lie beyond the hull
+    assert contradicted_images(gp, images).mean() < 0.05
+
+
+def test_a_feature_the_symmetry_does_not_hold_for_is_not_copied():
+    body = _sphere_with_a_stem()
+    points, normals, _, _ = sample_contacts(body, 200, noise=ContactNoise.off(), seed=1)
+    gp = GPIS(bounds=_bounds(body)).fit(points, normals)
+    images, image_normals = _TOP_BOTTOM.images(gp.contact_points, gp.contact_normals)
+    stem_images = images[:, 2] < -0.042
+    contradicted = contradicted_images(gp, images)
+    assert stem_images.any() and contradicted[stem_images].all() and not contradicted[~stem_images].any()
+    assert gp.mesh(resolution=48, symmetry=_TOP_BOTTOM).vertices[:, 2].min() > -0.045
+    lo, hi = gp.region                                            # every image in the region, as before
+    inside = np.all((images > lo) & (images < hi), axis=1)
+    every = copy.deepcopy(gp)
+    every.add(images[inside], image_normals[inside])
+    assert every.mesh(resolution=48).vertices[:, 2].min() < -0.05  # a stem grown below
 
 
 def test_a_copy_of_the_gpis_meshes_the_same():
