@@ -51,8 +51,8 @@ revolution too.
 The images a mesh observes (:meth:`reconstruction.gpis.GPIS.mesh`) leave out those two tests put
 off the surface at once (:func:`contradicted_images`): outside the contacts' hull beyond the sag
 and deep in the GPIS's free space. An accepted symmetry may hold for all of the object but a small
-feature (a fruit's stem, 2-3 % of the images), and the feature's images would grow it where the
-object has none; either test alone also drops images of a true symmetry (a bowl's bottom, where
+feature (a fruit's stem: 1.5 % of each transform's images, under the 2 % ``max_free``), and the
+feature's images would grow it where the object has none; either test alone also drops images of a true symmetry (a bowl's bottom, where
 the mean between sparse contacts is itself wrong, lies inside the hull).
 
 Written here rather than taken from a library: the symmetry detectors of the mesh libraries
