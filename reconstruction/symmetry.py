@@ -52,8 +52,9 @@ The images a mesh observes (:meth:`reconstruction.gpis.GPIS.mesh`) leave out tho
 off the surface at once (:func:`contradicted_images`): outside the contacts' hull beyond the sag
 and deep in the GPIS's free space. An accepted symmetry may hold for all of the object but a small
 feature (a fruit's stem: 1.5 % of each transform's images, under the 2 % ``max_free``), and the
-feature's images would grow it where the object has none; either test alone also drops images of a true symmetry (a bowl's bottom, where
-the mean between sparse contacts is itself wrong, lies inside the hull).
+feature's images would grow it where the object has none; either test alone also drops images of
+a true symmetry (a bowl's bottom, where the mean between sparse contacts is itself wrong, lies
+inside the hull).
 
 Written here rather than taken from a library: the symmetry detectors of the mesh libraries
 (``trimesh.Trimesh.symmetry``) work on a finished, exact mesh; this works on 50-400 noisy oriented
