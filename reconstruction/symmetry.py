@@ -63,6 +63,7 @@ points and must say no on an object that is not symmetric.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.ndimage import map_coordinates
@@ -282,16 +283,12 @@ def contradicted_images(gpis, images: np.ndarray, settings: SymmetrySettings = S
     if len(images) == 0 or len(points) < 4:
         return contradicted
     normals = gpis.contact_normals / np.linalg.norm(gpis.contact_normals, axis=1, keepdims=True)
-    judge = _ImageJudge(points, normals, None, settings)
+    judge = _ImageJudge(points, normals, gpis, settings)
     if not judge.usable:
         return contradicted
-    signed = images @ judge.hull[:, :3].T + judge.hull[:, 3]
-    facet = np.argmax(signed, axis=1)
-    contradicted = judge._beyond_the_sag(images, signed[np.arange(len(images)), facet], facet)
+    contradicted = judge._beyond_the_sag(images, *judge._outside_hull(images))
     if contradicted.any():
-        mean = np.asarray(gpis.mean(images[contradicted]), float)
-        std = np.sqrt(np.maximum(np.asarray(gpis.variance(images[contradicted]), float), 0.0))
-        contradicted[contradicted] = judge._deep(mean, std)
+        contradicted[contradicted] = judge._in_free_space(images[contradicted])
     return contradicted
 
 
@@ -304,7 +301,6 @@ class _ImageJudge:
         self._depth_grid = None
         self.feature_axis = None
         self.cos_cone = np.cos(settings.normal_cone_rad)
-        self.free_allowance = settings.max_free
         try:
             hull = ConvexHull(points)
         except Exception:  # flat or degenerate contact sets: nothing to judge by
@@ -313,8 +309,14 @@ class _ImageJudge:
         self.hull, self.usable = hull.equations, True
         corners = points[hull.simplices]
         self.circumradius = np.linalg.norm(corners - corners.mean(axis=1, keepdims=True), axis=2).max(axis=1)
-        if gpis is not None and gpis.use_normals:
-            self.free_allowance = max(settings.max_free, self._contacts_free_share())
+
+    @cached_property
+    def free_allowance(self) -> float:
+        """The share of images allowed in free space or solid: ``max_free``, or the share of its own
+        contacts the GPIS misplaces if larger (computed on first use: it costs a leave-one-out)."""
+        if self.gpis is not None and self.gpis.use_normals:
+            return max(self.s.max_free, self._contacts_free_share())
+        return self.s.max_free
 
     def _contacts_free_share(self) -> float:
         """The share of the contacts themselves the GPIS puts in free space or solid by the images'
@@ -346,9 +348,24 @@ class _ImageJudge:
         agrees = near & (np.einsum("ikj,ij->ik", contact_normals, qn) > self.cos_cone)
         off_plane = np.abs(np.einsum("ikj,ikj->ik", q[:, None, :] - self.points[idx], contact_normals))
         residual = np.min(np.where(agrees, off_plane, np.inf), axis=1)
+        return (q, residual, *self._outside_hull(q))
+
+    def _outside_hull(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(n,) distance of each point outside the contacts' hull (negative inside) and (n,) int the
+        hull facet it lies farthest in front of."""
         signed = q @ self.hull[:, :3].T + self.hull[:, 3]
         facet = np.argmax(signed, axis=1)
-        return q, residual, signed[np.arange(len(q)), facet], facet
+        return signed[np.arange(len(q)), facet], facet
+
+    def _in_free_space(self, q: np.ndarray) -> np.ndarray:
+        """(n,) bool: the GPIS mean puts these points deep in free space or solid (:meth:`_deep`;
+        the variance only where the mean is deep enough)."""
+        mean = np.asarray(self.gpis.mean(q), float)
+        deep = np.abs(mean) > self.s.free_depth_m
+        if deep.any():
+            std = np.sqrt(np.maximum(np.asarray(self.gpis.variance(q[deep]), float), 0.0))
+            deep[deep] = self._deep(mean[deep], std)
+        return deep
 
     def soft_score(self, transform: Transform, tolerance_m: float | None = None) -> float:
         """Smooth score for the search: Gaussian agreement minus inconsistent, outside and free
@@ -386,13 +403,7 @@ class _ImageJudge:
         free = 0.0
         if self.gpis is not None:
             lo, hi = self.gpis.region
-            inside_region = np.clip(q, lo, hi)
-            f = self.gpis.mean(inside_region).astype(float)
-            deep = np.abs(f) > self.s.free_depth_m
-            if deep.any():
-                std = np.sqrt(np.maximum(self.gpis.variance(inside_region[deep]), 0.0))
-                deep[deep] = self._deep(f[deep], std)
-            free = float(np.mean(deep))
+            free = float(np.mean(self._in_free_space(np.clip(q, lo, hi))))
         return dict(testable=float(testable.mean()), consistent=float(consistent.mean()),
                     share=float(consistent.sum() / testable.sum()) if testable.any() else 0.0,
                     inconsistent_count=int(np.sum(testable & ~consistent)),
