@@ -37,7 +37,9 @@ plane and no contact lies in front of it (a supporting face plane,
 ``sin(5 deg)`` (more for a narrow patch) times its distance is free wherever it lies more than
 ``min_margin_m`` outside the hull and its foot is enclosed, within the facet's and the local
 margin too: the lobe a smooth GPIS rounds past a wedge's sharp corner or a prism's edge, 4-10 mm
-outside the hull (BENCHMARKS.md, issue 10).
+outside the hull (BENCHMARKS.md, issue 10). Enclosed there means among the nearest
+``FACE_ENCLOSURE_NEIGHBOURS`` contacts: near the corner of a face the nearest eight often all lie on
+the neighbouring face, which projects to one side of the foot, and the lobe off the corner stayed.
 
 Where the GPIS mean still puts solid at such a free point, a value row ``f = -d`` (``d`` its
 distance outside the hull) is added with a loose noise, at most one per ``ROW_SPACING_M`` cube,
@@ -69,6 +71,9 @@ DEFAULT_MIN_MARGIN_M = 4.0e-3
 #: directions to its nearest ``ENCLOSURE_NEIGHBOURS`` contacts, radians.
 DEFAULT_MAX_OPEN_ANGLE_RAD = float(np.radians(120.0))
 ENCLOSURE_NEIGHBOURS = 8
+#: In front of a supporting face plane, among this many: by a sharp corner the nearest eight are
+#: often all on the neighbouring face, one side of the foot (module docstring).
+FACE_ENCLOSURE_NEIGHBOURS = 16
 #: ... and only ahead of some contact's tangent plane by more than this, metres: a few times the
 #: contacts' position noise along the normal.
 DEFAULT_TANGENT_MARGIN_M = 2.0e-3
@@ -193,11 +198,12 @@ def free_space_candidates(contacts: np.ndarray, box, facet_fraction: float = DEF
         by_face = np.zeros(len(x), bool)
         if faces is not None and not free.all():
             by_face[~free] = faces.in_front(x[~free])
-        if max_open_angle_rad is not None and (free | by_face).any():
-            either = free | by_face
-            enclosed = _enclosed(foot[either], planes[facet[either], :3], contacts, tree, max_open_angle_rad)
-            free[either] &= enclosed
-            by_face[either] &= enclosed
+        if max_open_angle_rad is not None:
+            if free.any():
+                free[free] = _enclosed(foot[free], planes[facet[free], :3], contacts, tree, max_open_angle_rad)
+            if by_face.any():
+                by_face[by_face] = _enclosed(foot[by_face], planes[facet[by_face], :3], contacts, tree,
+                                             max_open_angle_rad, FACE_ENCLOSURE_NEIGHBOURS)
         if normals is not None and tangent_margin_m is not None and free.any():
             free[free] = _ahead_of_a_tangent_plane(x[free], contacts, normals, tangent_margin_m,
                                                    normal_tolerance_rad)

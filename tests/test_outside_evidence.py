@@ -285,6 +285,31 @@ def test_face_planes_free_space_the_local_floor_kept_above_a_flat_face():
     assert np.all(np.min(half - np.abs(with_faces), axis=1) < 0)  # all outside the box
 
 
+def test_a_face_plane_frees_space_off_an_untouched_corner_of_its_face(monkeypatch):
+    # A box touched 300 times, none of them on its top face within 30 mm of one corner. Near that
+    # corner the nearest eight contacts of a foot on the top face lie mostly on the two side faces,
+    # which project to one side of it: counted among sixteen, the corner is enclosed and more of
+    # the space over it is free (a wedge's rounded-off edge, BENCHMARKS.md issue 10); all of it
+    # still outside the box, and nothing freed with eight is lost.
+    from reconstruction import outside_evidence
+
+    half = FACE_BOX_HALF
+    points, normals = _face_box_contacts(n=300, seed=0)
+    corner = (normals[:, 2] > 0.9) & (np.hypot(points[:, 0] - half[0], points[:, 1] - half[1]) < 0.03)
+    points, normals = points[~corner], normals[~corner]
+    region = (-half - 0.03, half + 0.03)
+    freed = {}
+    for neighbours in (outside_evidence.ENCLOSURE_NEIGHBOURS, 16):
+        monkeypatch.setattr(outside_evidence, "FACE_ENCLOSURE_NEIGHBOURS", neighbours)
+        freed[neighbours], _ = free_space_candidates(points, region, normals=normals)
+    over_corner = lambda p: ((p[:, 0] > half[0] - 0.02) & (p[:, 0] < half[0]) & (p[:, 1] > half[1] - 0.02)  # noqa: E731
+                             & (p[:, 1] < half[1]) & (p[:, 2] > half[2] + 0.004) & (p[:, 2] < half[2] + 0.012))
+    eight, sixteen = freed[outside_evidence.ENCLOSURE_NEIGHBOURS], freed[16]
+    assert over_corner(sixteen).sum() > over_corner(eight).sum()
+    assert {tuple(p) for p in eight.round(9)} <= {tuple(p) for p in sixteen.round(9)}
+    assert np.all(np.min(half - np.abs(sixteen), axis=1) < 0)
+
+
 def test_bad_face_tolerance_is_refused():
     points, normals = _face_box_contacts(n=20, seed=0)
     with pytest.raises(ValueError, match="face_tolerance_rad must be None or an angle"):
