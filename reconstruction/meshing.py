@@ -6,6 +6,14 @@ values at its corners could hide a zero crossing (a sign change, or every ``|f|`
 below a Lipschitz bound times the cell diagonal). Points that are never evaluated get the trilinear
 interpolation of the coarser level, which has the correct sign there, so marching cubes sees the
 same 0-level set as on the dense grid.
+
+Marching cubes places each vertex on its grid edge by linear interpolation of the two corner
+values. Across a thin wall the field rises and falls within a few millimetres (a narrow parabola
+between the wall's faces), and the straight line between a corner outside and a corner inside
+crosses zero inside the wall: the mesh shrank by a third of a voxel there, more as contacts grew
+denser and the field followed the wall more closely (BENCHMARKS.md, issue 10). Each vertex is
+therefore moved to the zero of ``func`` on its edge by a few steps of regula falsi
+(``refine_steps``), which keeps the mesh's connectivity and stays on the edge.
 """
 from __future__ import annotations
 
@@ -15,6 +23,8 @@ import numpy as np
 
 #: Safety factor on the gradient magnitude estimated from the coarsest grid.
 LIPSCHITZ_MARGIN = 1.5
+#: Evaluations per vertex that move it along its edge to the zero (module docstring).
+DEFAULT_REFINE_STEPS = 2
 
 
 def grid_axes(bounds, resolution: int) -> list[np.ndarray]:
@@ -115,7 +125,7 @@ def _interpolate_level(values: np.ndarray, known: np.ndarray, stride: int) -> No
 
 
 def mesh_zero_level(func: Callable[[np.ndarray], np.ndarray], bounds, resolution: int = 64,
-                    coarse_to_fine: bool = True):
+                    coarse_to_fine: bool = True, refine_steps: int = DEFAULT_REFINE_STEPS):
     """Marching-cubes mesh of ``{x : func(x) = 0}`` with outward normals (``func > 0`` inside).
 
     Parameters
@@ -124,6 +134,9 @@ def mesh_zero_level(func: Callable[[np.ndarray], np.ndarray], bounds, resolution
     bounds : ((3,), (3,)) float, metres
     resolution : int
         Samples along the longest side.
+    refine_steps : int
+        Evaluations of ``func`` per vertex that move it along its grid edge towards the zero
+        (module docstring); 0: the linear interpolation of marching cubes.
 
     Returns
     -------
@@ -142,8 +155,55 @@ def mesh_zero_level(func: Callable[[np.ndarray], np.ndarray], bounds, resolution
         raise ValueError("the implicit function has no 0-level set inside the bounds "
                          f"(range {values.min():.3g} .. {values.max():.3g}); enlarge the bounds or "
                          "add contacts")
+    if not (isinstance(refine_steps, (int, np.integer)) and refine_steps >= 0):
+        raise ValueError(f"refine_steps must be a count >= 0, got {refine_steps!r}")
     step = axes[0][1] - axes[0][0]
-    verts, faces, _, _ = marching_cubes(values, level=0.0, spacing=(step, step, step),
-                                        gradient_direction="ascent")
-    verts = verts + np.array([a[0] for a in axes])
+    verts, faces, _, _ = marching_cubes(values, level=0.0, gradient_direction="ascent")
+    origin = np.array([a[0] for a in axes])
+    if refine_steps:
+        verts = _refined_on_edges(func, values, verts, origin, step, int(refine_steps))
+    else:
+        verts = origin + step * verts
     return trimesh.Trimesh(vertices=verts, faces=faces, process=True)
+
+
+def _refined_on_edges(func, values: np.ndarray, verts: np.ndarray, origin: np.ndarray, step: float,
+                      steps: int) -> np.ndarray:
+    """Vertices (k, 3), grid index units, moved along their grid edges to the zero of ``func`` by
+    ``steps`` Illinois regula-falsi evaluations; returned in metres. The corner values bracket the
+    zero (marching cubes put the vertex between a corner >= 0 and one < 0)."""
+    low = np.floor(verts).astype(np.int64)
+    frac = verts - low
+    axis = np.argmax(frac, axis=1)
+    on_edge = frac[np.arange(len(verts)), axis] > 0  # a vertex on a corner is exact already
+    idx = np.flatnonzero(on_edge)
+    out = origin + step * verts
+    if not len(idx):
+        return out
+    a_idx = low[idx]
+    b_idx = a_idx.copy()
+    b_idx[np.arange(len(idx)), axis[idx]] += 1
+    f_a = values[tuple(a_idx.T)].astype(float)
+    f_b = values[tuple(b_idx.T)].astype(float)
+    t_a, t_b = np.zeros(len(idx)), np.ones(len(idx))
+    t = frac[idx, axis[idx]]
+    direction = np.zeros((len(idx), 3))
+    direction[np.arange(len(idx)), axis[idx]] = step
+    start = origin + step * a_idx
+    moved_a = np.zeros(len(idx), int)  # which end the last step replaced: 1 a, -1 b, 0 none yet
+    for _ in range(steps):
+        f_t = np.asarray(func(start + t[:, None] * direction), float)
+        same_as_a = (f_t >= 0) == (f_a >= 0)
+        # Illinois: the end kept twice in a row has its value halved, so that a curved profile
+        # (regula falsi's slow side) still shrinks the bracket from both ends
+        f_b = np.where(same_as_a & (moved_a == 1), 0.5 * f_b, f_b)
+        f_a = np.where(~same_as_a & (moved_a == -1), 0.5 * f_a, f_a)
+        t_a, f_a = np.where(same_as_a, t, t_a), np.where(same_as_a, f_t, f_a)
+        t_b, f_b = np.where(same_as_a, t_b, t), np.where(same_as_a, f_b, f_t)
+        moved_a = np.where(same_as_a, 1, -1)
+        denominator = f_a - f_b
+        safe = np.abs(denominator) > 0
+        t = np.where(safe, t_a + (t_b - t_a) * f_a / np.where(safe, denominator, 1.0), 0.5 * (t_a + t_b))
+        t = np.clip(t, t_a, t_b)
+    out[idx] = start + t[:, None] * direction
+    return out

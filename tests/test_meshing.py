@@ -44,3 +44,37 @@ def test_mesh_is_the_torus_with_outward_normals():
 def test_resolution_must_be_usable():
     with pytest.raises(ValueError, match="resolution"):
         grid_axes(BOUNDS, 4)
+
+
+def thin_slab(p, half_thickness=0.002):
+    """A 4 mm wall across z = 0: the field rises and falls across it like a GPIS's across a thin
+    wall (a parabola, > 0 inside), not like a distance."""
+    return (half_thickness**2 - p[:, 2] ** 2) / (2 * half_thickness)
+
+
+def test_vertices_moved_along_their_edges_lie_on_the_wall_not_inside_it():
+    # Linear interpolation of the parabola between a grid point outside and one inside crosses
+    # zero inside the wall: the faces' |z| comes out below the 2 mm half thickness. Moved along
+    # their edges by two evaluations each they lie within a quarter of that bias of it (the
+    # closed form), and the mesh keeps its faces.
+    bounds = ((-0.05, -0.05, -0.02), (0.05, 0.05, 0.02))
+    linear = mesh_zero_level(thin_slab, bounds, resolution=33, refine_steps=0)  # 3.1 mm voxels
+    refined = mesh_zero_level(thin_slab, bounds, resolution=33)
+    inward = 0.002 - np.abs(linear.vertices[:, 2])
+    assert inward.mean() > 1e-4  # the bias being removed is there: over 0.1 mm on average
+    assert np.abs(np.abs(refined.vertices[:, 2]) - 0.002).max() < 0.25 * inward.mean()
+    np.testing.assert_array_equal(refined.faces, linear.faces)
+    np.testing.assert_allclose(refined.vertices[:, :2], linear.vertices[:, :2], atol=1e-12)
+
+
+@pytest.mark.parametrize("func", [torus, two_spheres])
+def test_refined_vertices_are_nearer_the_zero_than_interpolated_ones(func):
+    linear = mesh_zero_level(func, BOUNDS, resolution=33, refine_steps=0)
+    refined = mesh_zero_level(func, BOUNDS, resolution=33)
+    assert np.abs(func(refined.vertices)).mean() < 0.1 * np.abs(func(linear.vertices)).mean()
+    assert np.abs(func(refined.vertices)).max() < 0.5 * np.abs(func(linear.vertices)).max()
+
+
+def test_refine_steps_must_be_a_count():
+    with pytest.raises(ValueError, match="refine_steps must be a count >= 0"):
+        mesh_zero_level(torus, BOUNDS, resolution=33, refine_steps=-1)
