@@ -260,6 +260,14 @@ class LoopConfig:
         ``metrics.json`` says what was found. The loop's own field and the strategy are left as
         measured. Chosen on the tuning split (BENCHMARKS.md, "Symmetry found from the contacts").
         False: runs recorded before 2026-11-29.
+    reconstruction_refine_steps : int
+        ``GPIS.mesh(refine_steps=...)`` for the run's mesh. 0: the vertices where marching cubes
+        interpolates them linearly, a third of a voxel inside a thin wall. The loop's contacts lie
+        0.1-0.4 mm outside flat and thin-walled surfaces on average (the pad's edge presses) and that
+        shrink offsets part of it: with the vertices moved to the field's zero (2), the tuning
+        split's loop runs lost 0.03 mm on average and up to 0.17 mm on thin walls (BENCHMARKS.md,
+        "Vertices on the field's zero"), while sampled contacts, unbiased, gain. Chosen on the
+        tuning split; raise it once the contacts' outward bias is modelled.
     """
 
     touches: int = ExplorationConfig.touches
@@ -300,6 +308,7 @@ class LoopConfig:
     loose_settle_deviation_rad: float | None = float(np.radians(1.5))
     bridge_concave_contacts: bool = True
     reconstruction_symmetry: bool = True
+    reconstruction_refine_steps: int = 0
 
     def release_threshold_pa(self, detector: PressureDetectorConfig) -> float | None:
         """The contact pipeline's release test pressure (``ContactPipeline.release_threshold_pa``)
@@ -307,6 +316,11 @@ class LoopConfig:
         if not self.drop_released_presses:
             return None
         return detector.start_threshold_pa if self.release_at_contact_threshold else detector.end_threshold_pa
+
+    def __post_init__(self):
+        steps = self.reconstruction_refine_steps
+        if not (isinstance(steps, (int, np.integer)) and not isinstance(steps, bool) and steps >= 0):
+            raise ValueError(f"LoopConfig.reconstruction_refine_steps must be a count >= 0, got {steps!r}")
 
     def loose_settling(self, settling: SettlingConfig) -> SettlingConfig | None:
         """The contact pipeline's fallback settling test (``ContactPipeline.loose_settling``):

@@ -37,13 +37,15 @@ def export_mesh(mesh, path: Path) -> Path:
     return write_bytes(path, mesh.export(file_type=path.suffix.lstrip(".").lower()))
 
 
-def write_mesh(gpis, resolution: int, out_dir: Path, metrics: dict, symmetry: bool = False):
+def write_mesh(gpis, resolution: int, out_dir: Path, metrics: dict, symmetry: bool = False,
+               refine_steps: int | None = None):
     """Mesh the GPIS mean surface into ``out_dir/reconstruction.ply``; returns the mesh or None.
 
     A field with no zero level set (or no contacts) gives None, with ``reconstruction_error`` in
     ``metrics`` saying why when meshing failed. ``symmetry``: mesh with the contacts' symmetric
     images (``GPIS.mesh(symmetry=...)``); ``metrics["reconstruction_symmetry"]`` says what was
     found (``none``, ``mirror`` or ``revolution``, with the number of transforms).
+    ``refine_steps``: as ``GPIS.mesh`` takes it (the loop passes its ``reconstruction_refine_steps``).
     """
     if not gpis.n_contacts:
         return None
@@ -55,7 +57,7 @@ def write_mesh(gpis, resolution: int, out_dir: Path, metrics: dict, symmetry: bo
             found = gpis.symmetry()
             metrics["reconstruction_symmetry"] = dict(kind=found.kind, transforms=len(found.transforms))
             options["symmetry"] = found
-        mesh = gpis.mesh(resolution=resolution, **options)
+        mesh = gpis.mesh(resolution=resolution, refine_steps=refine_steps, **options)
         export_mesh(mesh, Path(out_dir) / "reconstruction.ply")
     except ValueError as exc:
         metrics["reconstruction_error"] = str(exc)

@@ -639,8 +639,9 @@ class SessionReplay:
         if not self.teleop:
             metrics["bridged_contacts"] = self._loop_config(settings).reconstruction_records(
                 result.touches, self.pad.half_width_m, result.gpis.use_normals)[1]
-        mesh = write_mesh(field, self.mesh_resolution(settings), out, metrics,
-                          self._loop_config(settings).reconstruction_symmetry)
+        config = self._loop_config(settings)
+        mesh = write_mesh(field, self.mesh_resolution(settings), out, metrics, config.reconstruction_symmetry,
+                          config.reconstruction_refine_steps)
         add_errors(metrics, mesh, self.truth, result.points_m, result.normals)
         outputs.write_json(out / "metrics.json", jsonable(metrics))
         if mesh is not None and self.truth is not None and settings.figures:

@@ -189,7 +189,8 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
             t0 = time.perf_counter()
             try:
                 field = loop.config.reconstruction_field(gpis, loop.records, rig.pad.half_width_m)[0]
-                err = surface_error(field.mesh(resolution=48, symmetry=loop.config.reconstruction_symmetry),
+                err = surface_error(field.mesh(resolution=48, symmetry=loop.config.reconstruction_symmetry,
+                                               refine_steps=loop.config.reconstruction_refine_steps),
                                     rig.reference, n_samples=5000,
                                     sharp_edges=np.zeros((0, 2, 3)))
                 curve.append((n, err.position_rmse_mm, err.normal_rmse_deg))
@@ -326,7 +327,8 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
         metrics["bridged_contacts"] = loop.config.reconstruction_records(loop.records, rig.pad.half_width_m,
                                                                           gpis.use_normals)[1]
         gpis, metrics["swept_free_space_rows"] = loop.config.reconstruction_field(gpis, loop.records, rig.pad.half_width_m)
-        mesh = write_mesh(gpis, settings.mesh_resolution, out_dir, metrics, loop.config.reconstruction_symmetry)
+        mesh = write_mesh(gpis, settings.mesh_resolution, out_dir, metrics, loop.config.reconstruction_symmetry,
+                          loop.config.reconstruction_refine_steps)
         if mesh is not None:
             recorder.reconstruction(mesh, gpis.n_contacts, recorder.latest_time_s)
         add_errors(metrics, mesh, truth, contacts, normals)

@@ -393,7 +393,8 @@ class GPIS:
         return VarianceTracker(self, candidates)
 
     def mesh(self, bounds: Sequence[Sequence[float]] | None = None, resolution: int = 64,
-             max_std_m: float | None = None, outside_evidence: bool = True, symmetry=False):
+             max_std_m: float | None = None, outside_evidence: bool = True, symmetry=False,
+             refine_steps: int | None = None):
         """The mean surface (0-level set) as a ``trimesh.Trimesh`` with outward normals.
 
         Parameters
@@ -418,6 +419,10 @@ class GPIS:
             the axis of revolution the contacts support (:meth:`symmetry`; none found: no
             change); a :class:`reconstruction.symmetry.Symmetry`: under that one. Only with
             normals; this GPIS is not changed. False (default): no images.
+        refine_steps : int, optional
+            Evaluations of the mean per vertex that move it along its grid edge to the 0-level
+            (:func:`reconstruction.meshing.mesh_zero_level`); None: its default, 2. 0: the linear
+            interpolation of marching cubes, which puts thin walls a third of a voxel too thin.
         """
         from reconstruction.confidence import mean_surface
 
@@ -430,7 +435,8 @@ class GPIS:
 
             model = copy.deepcopy(self) if model is self else model
             add_outside_evidence(model)
-        return mean_surface(model, self._region if bounds is None else _check_bounds(bounds), resolution, max_std_m)
+        return mean_surface(model, self._region if bounds is None else _check_bounds(bounds), resolution, max_std_m,
+                            refine_steps)
 
     def symmetry(self):
         """The mirror planes or axis of revolution this GPIS's contacts support

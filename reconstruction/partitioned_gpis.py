@@ -291,12 +291,13 @@ class PartitionedGPIS:
         return PartitionedVarianceTracker(self, candidates)
 
     def mesh(self, bounds: Sequence[Sequence[float]] | None = None, resolution: int = 64,
-             max_std_m: float | None = None):
+             max_std_m: float | None = None, refine_steps: int | None = None):
         """The blended mean's 0-level set as a ``trimesh.Trimesh`` (see :meth:`GPIS.mesh`)."""
         from reconstruction.confidence import mean_surface
 
         self._require_fit()
-        return mean_surface(self, self.bounds if bounds is None else _check_bounds(bounds), resolution, max_std_m)
+        return mean_surface(self, self.bounds if bounds is None else _check_bounds(bounds), resolution, max_std_m,
+                            refine_steps)
 
     # ------------------------------------------------------------------ the global GPIS's interface
     @property

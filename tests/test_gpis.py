@@ -529,3 +529,23 @@ def test_leave_one_out_needs_normals():
     points, _ = sphere_contacts(20)
     with pytest.raises(ValueError, match="normals"):
         GPIS(use_normals=False, bounds=BOUNDS).fit(points).leave_one_out()
+
+
+def test_mesh_vertices_lie_on_the_mean_zero_unless_asked_for_the_linear_ones():
+    # The default mesh moves each vertex along its grid edge to the mean's zero; refine_steps=0
+    # keeps marching cubes' linear interpolation, whose vertices sit off it by a fraction of a voxel.
+    points, normals = exact_sphere_contacts(60, radius_m=0.04, seed=1)
+    gp = GPIS().fit(points, normals)
+    refined = gp.mesh(resolution=24)
+    linear = gp.mesh(resolution=24, refine_steps=0)
+    assert np.abs(gp.mean(refined.vertices)).mean() < 0.2 * np.abs(gp.mean(linear.vertices)).mean()
+    np.testing.assert_array_equal(refined.faces, linear.faces)
+
+
+def test_the_loop_refuses_a_refine_steps_that_is_not_a_count():
+    from explorer.loop import LoopConfig
+
+    for bad in (-1, 1.5, True):
+        with pytest.raises(ValueError, match="LoopConfig.reconstruction_refine_steps must be a count >= 0"):
+            LoopConfig(reconstruction_refine_steps=bad)
+    assert LoopConfig(reconstruction_refine_steps=2).reconstruction_refine_steps == 2
