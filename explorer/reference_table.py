@@ -165,10 +165,12 @@ def read_contacts(run_directory: Path) -> tuple[np.ndarray, np.ndarray]:
 
 def classic_refit(run_directory: Path, resolution: int) -> dict:
     """The reference's baseline from a run's contacts: GPIS without normals (one inside and 14
-    outside samples), meshed at ``resolution`` and scored against the truth; cached in the run's
-    ``classic_gpis.json``."""
+    outside samples), meshed at ``resolution`` as the loop meshes its runs (its
+    ``reconstruction_refine_steps``: the same contacts, the same vertices) and scored against the
+    truth; cached in the run's ``classic_gpis.json``."""
     import objects
     from explorer.evaluation import jsonable, reconstruction_errors
+    from explorer.loop import LoopConfig
     from explorer.outputs import write_json
     from explorer.rig import object_prior
     from reconstruction.gpis import GPIS
@@ -182,7 +184,8 @@ def classic_refit(run_directory: Path, resolution: int) -> dict:
     result: dict = dict(contacts=int(len(points)), resolution=resolution)
     try:
         gpis = GPIS(bounds=object_prior(truth).bounds(), use_normals=False).fit(points, normals)
-        result.update(reconstruction_errors(gpis.mesh(resolution=resolution), truth, points, normals))
+        mesh = gpis.mesh(resolution=resolution, refine_steps=LoopConfig.reconstruction_refine_steps)
+        result.update(reconstruction_errors(mesh, truth, points, normals))
     except ValueError as error:  # too few contacts, no zero level set
         result["error"] = str(error)
     result = jsonable(result)

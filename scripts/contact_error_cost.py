@@ -79,7 +79,8 @@ def error_cost(run: Path, worse_than_m: float, mesh_resolution: int | None = Non
 
     def rmse(records) -> float | None:
         try:
-            mesh = replay.refit(records, as_given).mesh(resolution=resolution)
+            mesh = replay.refit(records, as_given).mesh(resolution=resolution,
+                                                        refine_steps=replay.loop_config.reconstruction_refine_steps)
         except ValueError:  # no zero level set in the region
             return None
         return float(surface_error(mesh, replay.truth).position_rmse_mm)

@@ -55,7 +55,8 @@ def sphere_run(recorded_sphere_run):
 def test_the_refit_of_the_replayed_touches_is_the_run_and_exact_contacts_lie_on_the_truth(sphere_run):
     replay = SessionReplay(sphere_run.out_dir / "session")
     touches = replay.run(ReplaySettings(figures=False)).touches
-    mesh = replay.refit(touches).mesh(resolution=replay.mesh_resolution())
+    mesh = replay.refit(touches).mesh(resolution=replay.mesh_resolution(),
+                                      refine_steps=replay.loop_config.reconstruction_refine_steps)
     assert surface_error(mesh, replay.truth).position_rmse_mm == pytest.approx(
         sphere_run.metrics["position_rmse_mm"], rel=1e-9)
 
