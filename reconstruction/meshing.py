@@ -13,7 +13,11 @@ between the wall's faces), and the straight line between a corner outside and a 
 crosses zero inside the wall: the mesh shrank by a third of a voxel there, more as contacts grew
 denser and the field followed the wall more closely (BENCHMARKS.md, issue 10). Each vertex is
 therefore moved to the zero of ``func`` on its edge by a few steps of regula falsi
-(``refine_steps``), which keeps the mesh's connectivity and stays on the edge.
+(``refine_steps``), which keeps the mesh's connectivity and stays on the edge. A vertex whose zero
+lies within ``MIN_REFINE_MOVE`` of a voxel of the linear estimate stays where it was: on a smooth
+surface the linear vertices give smoother faces (moving every vertex raised the registry sphere's
+normal error from 3.4 to 4.1 deg, with this threshold 3.6), and the thin walls' vertices move
+further than that.
 """
 from __future__ import annotations
 
@@ -25,6 +29,8 @@ import numpy as np
 LIPSCHITZ_MARGIN = 1.5
 #: Evaluations per vertex that move it along its edge to the zero (module docstring).
 DEFAULT_REFINE_STEPS = 2
+#: A vertex moves only if the zero lies this fraction of a voxel or more from the linear estimate.
+MIN_REFINE_MOVE = 0.1
 
 
 def grid_axes(bounds, resolution: int) -> list[np.ndarray]:
@@ -170,8 +176,9 @@ def mesh_zero_level(func: Callable[[np.ndarray], np.ndarray], bounds, resolution
 def _refined_on_edges(func, values: np.ndarray, verts: np.ndarray, origin: np.ndarray, step: float,
                       steps: int) -> np.ndarray:
     """Vertices (k, 3), grid index units, moved along their grid edges to the zero of ``func`` by
-    ``steps`` Illinois regula-falsi evaluations; returned in metres. The corner values bracket the
-    zero (marching cubes put the vertex between a corner >= 0 and one < 0)."""
+    ``steps`` Illinois regula-falsi evaluations where the zero lies ``MIN_REFINE_MOVE`` of a voxel or
+    more from them; returned in metres. The corner values bracket the zero (marching cubes put the
+    vertex between a corner >= 0 and one < 0)."""
     low = np.floor(verts).astype(np.int64)
     frac = verts - low
     axis = np.argmax(frac, axis=1)
@@ -205,5 +212,7 @@ def _refined_on_edges(func, values: np.ndarray, verts: np.ndarray, origin: np.nd
         safe = np.abs(denominator) > 0
         t = np.where(safe, t_a + (t_b - t_a) * f_a / np.where(safe, denominator, 1.0), 0.5 * (t_a + t_b))
         t = np.clip(t, t_a, t_b)
-    out[idx] = start + t[:, None] * direction
+    linear = frac[idx, axis[idx]]
+    moved = np.abs(t - linear) >= MIN_REFINE_MOVE
+    out[idx[moved]] = start[moved] + t[moved, None] * direction[moved]
     return out

@@ -531,9 +531,12 @@ def test_leave_one_out_needs_normals():
         GPIS(use_normals=False, bounds=BOUNDS).fit(points).leave_one_out()
 
 
-def test_mesh_vertices_lie_on_the_mean_zero_unless_asked_for_the_linear_ones():
-    # The default mesh moves each vertex along its grid edge to the mean's zero; refine_steps=0
-    # keeps marching cubes' linear interpolation, whose vertices sit off it by a fraction of a voxel.
+def test_mesh_vertices_lie_on_the_mean_zero_unless_asked_for_the_linear_ones(monkeypatch):
+    # The mesh moves each vertex along its grid edge to the mean's zero (here every vertex, however
+    # little); refine_steps=0 keeps marching cubes' linear interpolation, whose vertices sit off it.
+    from reconstruction import meshing
+
+    monkeypatch.setattr(meshing, "MIN_REFINE_MOVE", 0.0)
     points, normals = exact_sphere_contacts(60, radius_m=0.04, seed=1)
     gp = GPIS().fit(points, normals)
     refined = gp.mesh(resolution=24)

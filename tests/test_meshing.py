@@ -2,6 +2,7 @@
 import numpy as np
 import pytest
 
+from reconstruction import meshing
 from reconstruction.meshing import (evaluate_coarse_to_fine, evaluate_dense, grid_axes,
                                     mesh_zero_level)
 
@@ -46,20 +47,23 @@ def test_resolution_must_be_usable():
         grid_axes(BOUNDS, 4)
 
 
+SLAB_BOUNDS = ((-0.05, -0.05, -0.02), (0.05, 0.05, 0.02))
+
+
 def thin_slab(p, half_thickness=0.002):
     """A 4 mm wall across z = 0: the field rises and falls across it like a GPIS's across a thin
     wall (a parabola, > 0 inside), not like a distance."""
     return (half_thickness**2 - p[:, 2] ** 2) / (2 * half_thickness)
 
 
-def test_vertices_moved_along_their_edges_lie_on_the_wall_not_inside_it():
+def test_vertices_moved_along_their_edges_lie_on_the_wall_not_inside_it(monkeypatch):
     # Linear interpolation of the parabola between a grid point outside and one inside crosses
     # zero inside the wall: the faces' |z| comes out below the 2 mm half thickness. Moved along
-    # their edges by two evaluations each they lie within a quarter of that bias of it (the
-    # closed form), and the mesh keeps its faces.
-    bounds = ((-0.05, -0.05, -0.02), (0.05, 0.05, 0.02))
-    linear = mesh_zero_level(thin_slab, bounds, resolution=33, refine_steps=0)  # 3.1 mm voxels
-    refined = mesh_zero_level(thin_slab, bounds, resolution=33)
+    # their edges by two evaluations each (every vertex, however little it moves) they lie within
+    # a quarter of that bias of it (the closed form), and the mesh keeps its faces.
+    monkeypatch.setattr(meshing, "MIN_REFINE_MOVE", 0.0)
+    linear = mesh_zero_level(thin_slab, SLAB_BOUNDS, resolution=33, refine_steps=0)  # 3.1 mm voxels
+    refined = mesh_zero_level(thin_slab, SLAB_BOUNDS, resolution=33)
     inward = 0.002 - np.abs(linear.vertices[:, 2])
     assert inward.mean() > 1e-4  # the bias being removed is there: over 0.1 mm on average
     assert np.abs(np.abs(refined.vertices[:, 2]) - 0.002).max() < 0.25 * inward.mean()
@@ -67,8 +71,26 @@ def test_vertices_moved_along_their_edges_lie_on_the_wall_not_inside_it():
     np.testing.assert_allclose(refined.vertices[:, :2], linear.vertices[:, :2], atol=1e-12)
 
 
+def test_a_vertex_moves_only_where_the_zero_lies_a_tenth_of_a_voxel_off_the_linear_one():
+    # By default a vertex whose zero lies within MIN_REFINE_MOVE of a voxel of its linear
+    # estimate stays (a smooth surface keeps the smooth faces linear interpolation gives): every
+    # vertex is either where it was or moved by at least that, and none is left further off the
+    # wall than that plus the refinement's own tolerance.
+    step = (SLAB_BOUNDS[1][0] - SLAB_BOUNDS[0][0]) / 32
+    linear = mesh_zero_level(thin_slab, SLAB_BOUNDS, resolution=33, refine_steps=0)
+    refined = mesh_zero_level(thin_slab, SLAB_BOUNDS, resolution=33)
+    move = np.linalg.norm(refined.vertices - linear.vertices, axis=1)
+    assert np.all((move == 0) | (move >= meshing.MIN_REFINE_MOVE * step * (1 - 1e-9)))
+    assert 0 < np.count_nonzero(move) < len(move)
+    inward = 0.002 - np.abs(linear.vertices[:, 2])
+    off = np.abs(np.abs(refined.vertices[:, 2]) - 0.002)
+    assert off.max() < meshing.MIN_REFINE_MOVE * step + 0.25 * inward.mean()
+    assert off.mean() < 0.5 * inward.mean()
+
+
 @pytest.mark.parametrize("func", [torus, two_spheres])
-def test_refined_vertices_are_nearer_the_zero_than_interpolated_ones(func):
+def test_refined_vertices_are_nearer_the_zero_than_interpolated_ones(func, monkeypatch):
+    monkeypatch.setattr(meshing, "MIN_REFINE_MOVE", 0.0)
     linear = mesh_zero_level(func, BOUNDS, resolution=33, refine_steps=0)
     refined = mesh_zero_level(func, BOUNDS, resolution=33)
     assert np.abs(func(refined.vertices)).mean() < 0.1 * np.abs(func(linear.vertices)).mean()
