@@ -152,6 +152,8 @@ def mesh_zero_level(func: Callable[[np.ndarray], np.ndarray], bounds, resolution
     import trimesh
     from skimage.measure import marching_cubes
 
+    if not (isinstance(refine_steps, (int, np.integer)) and refine_steps >= 0):
+        raise ValueError(f"refine_steps must be a count >= 0, got {refine_steps!r}")
     axes = grid_axes(bounds, resolution)
     if coarse_to_fine:
         values, _ = evaluate_coarse_to_fine(func, axes)
@@ -161,8 +163,6 @@ def mesh_zero_level(func: Callable[[np.ndarray], np.ndarray], bounds, resolution
         raise ValueError("the implicit function has no 0-level set inside the bounds "
                          f"(range {values.min():.3g} .. {values.max():.3g}); enlarge the bounds or "
                          "add contacts")
-    if not (isinstance(refine_steps, (int, np.integer)) and refine_steps >= 0):
-        raise ValueError(f"refine_steps must be a count >= 0, got {refine_steps!r}")
     step = axes[0][1] - axes[0][0]
     verts, faces, _, _ = marching_cubes(values, level=0.0, gradient_direction="ascent")
     origin = np.array([a[0] for a in axes])
