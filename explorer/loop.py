@@ -40,6 +40,7 @@ from explorer.rig import Rig
 from explorer.strategies import ExplorationState, TouchStrategy
 from explorer.touch import Touch, TouchOutcome
 from reconstruction.gpis import GPIS
+from reconstruction.meshing import check_refine_steps
 from robots.interface import MoveNotReachedError
 from sensor.contact_detection import PressureContactDetector, PressureDetectorConfig
 from sensor.normal_estimation import SettlingConfig
@@ -318,9 +319,7 @@ class LoopConfig:
         return detector.start_threshold_pa if self.release_at_contact_threshold else detector.end_threshold_pa
 
     def __post_init__(self):
-        steps = self.reconstruction_refine_steps
-        if not (isinstance(steps, (int, np.integer)) and not isinstance(steps, bool) and steps >= 0):
-            raise ValueError(f"LoopConfig.reconstruction_refine_steps must be a count >= 0, got {steps!r}")
+        check_refine_steps(self.reconstruction_refine_steps, "LoopConfig.reconstruction_refine_steps")
 
     def loose_settling(self, settling: SettlingConfig) -> SettlingConfig | None:
         """The contact pipeline's fallback settling test (``ContactPipeline.loose_settling``):

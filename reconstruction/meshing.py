@@ -152,8 +152,7 @@ def mesh_zero_level(func: Callable[[np.ndarray], np.ndarray], bounds, resolution
     import trimesh
     from skimage.measure import marching_cubes
 
-    if not (isinstance(refine_steps, (int, np.integer)) and refine_steps >= 0):
-        raise ValueError(f"refine_steps must be a count >= 0, got {refine_steps!r}")
+    check_refine_steps(refine_steps)
     axes = grid_axes(bounds, resolution)
     if coarse_to_fine:
         values, _ = evaluate_coarse_to_fine(func, axes)
@@ -171,6 +170,12 @@ def mesh_zero_level(func: Callable[[np.ndarray], np.ndarray], bounds, resolution
     else:
         verts = origin + step * verts
     return trimesh.Trimesh(vertices=verts, faces=faces, process=True)
+
+
+def check_refine_steps(value, name: str = "refine_steps") -> None:
+    """Refuse a ``refine_steps`` that is not a count >= 0, naming it ``name``."""
+    if not (isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= 0):
+        raise ValueError(f"{name} must be a count >= 0, got {value!r}")
 
 
 def _refined_on_edges(func, values: np.ndarray, verts: np.ndarray, origin: np.ndarray, step: float,
