@@ -12,7 +12,8 @@ Public API:
 * :func:`add_outside_evidence` (value rows where the mean puts solid well outside the contacts'
   convex hull and tangent planes, or in front of a flat face no contact lies in front of:
   :func:`supporting_face_planes` -> :class:`FacePlanes`; ``GPIS.mesh()`` applies it to a copy by
-  default);
+  default); :func:`supporting_contact_faces` (-> :class:`ContactFaces`: each contact's face with how
+  well its normal is known; the symmetry search refuses a transform that turns one face onto another);
 * :func:`find_symmetry` (-> :class:`Symmetry`, settings :class:`SymmetrySettings`): mirror planes
   or an axis of revolution the contacts support, whose images of the contacts fill sampling gaps
   (``GPIS.mesh(symmetry=True)``), less the images the hull and the GPIS both put off the surface
@@ -45,6 +46,8 @@ _LAZY = {
     "add_outside_evidence": "reconstruction.outside_evidence",
     "FacePlanes": "reconstruction.face_planes",
     "supporting_face_planes": "reconstruction.face_planes",
+    "ContactFaces": "reconstruction.face_planes",
+    "supporting_contact_faces": "reconstruction.face_planes",
     "Symmetry": "reconstruction.symmetry",
     "SymmetrySettings": "reconstruction.symmetry",
     "find_symmetry": "reconstruction.symmetry",

@@ -31,8 +31,11 @@ at most ``max_free`` lie in free space, or as large a share as the GPIS puts of 
 themselves, each left out, when that is more than chance at ``max_free`` gives
 (:meth:`reconstruction.gpis.GPIS.leave_one_out`): images of a true symmetry are points of the
 surface the GPIS has not seen, and a field that misplaces its own contacts by several millimetres
-(thin walls touched through the loop) misplaces them as often. The defaults were chosen on the
-generated tuning split (BENCHMARKS.md).
+(thin walls touched through the loop) misplaces them as often; and no supporting flat face of the
+contacts (several contacts on one plane, its normal known to a few degrees) is turned onto another
+by more than their errors allow (:meth:`_ImageJudge.face_conflicts`: the plane halving a wedge's
+top and bottom turns its end face 20 deg). The defaults were chosen on the generated tuning split
+(BENCHMARKS.md).
 
 Search. An axis of revolution first: every normal line of a surface of revolution meets its axis,
 so the axis is fitted to the contacts' normal lines (robust least squares over a hemisphere of
@@ -73,6 +76,7 @@ from scipy.spatial.transform import Rotation
 from scipy.stats import binom
 
 from common.directions import fibonacci_directions, perpendicular_frame
+from reconstruction.face_planes import ContactFaces, supporting_contact_faces
 from reconstruction.outside_evidence import DEFAULT_FACET_FRACTION, DEFAULT_LOCAL_NEIGHBOURS
 
 #: A rigid map ``x -> M @ x + t``: (M (3, 3), t (3,)), object frame, metres.
@@ -97,7 +101,10 @@ class SymmetrySettings:
     planes through a refused axis of revolution refined first; ``search_grid``: points per axis
     of the GPIS mean the search interpolates; ``rotations``: turns about an axis of revolution
     (360 / rotations apart); ``min_image_gap_m`` / ``max_images``: images kept
-    (:meth:`Symmetry.images`); ``min_contacts``: fewer contacts say nothing.
+    (:meth:`Symmetry.images`); ``min_contacts``: fewer contacts say nothing;
+    ``face_match_radius_m`` / ``face_conflict_rad``: how near a face's mapped centre must lie to
+    another face's centre to be compared, and by how much more than both faces' tilt and curvature
+    allowances their normals may not differ (:meth:`_ImageJudge.face_conflicts`).
     """
 
     match_radius_m: float = 0.008
@@ -124,6 +131,8 @@ class SymmetrySettings:
     min_image_gap_m: float = 3e-3
     max_images: int = 1000
     min_contacts: int = 20
+    face_match_radius_m: float = 5e-3
+    face_conflict_rad: float = float(np.radians(10.0))
 
 
 @dataclass(frozen=True)
@@ -424,7 +433,43 @@ class _ImageJudge:
         return (f["consistent"] >= s.min_consistent and f["testable"] - f["consistent"] <= s.max_inconsistent
                 and (f["share"] >= s.min_consistent_share or f["inconsistent_count"] <= s.consistency_exceptions)
                 and f["outside"] <= s.max_outside
-                and f["free"] <= min(self.free_allowance, self._free_limit(transform)))
+                and f["free"] <= min(self.free_allowance, self._free_limit(transform))
+                and not self.face_conflicts(transform).any())
+
+    @cached_property
+    def faces(self) -> ContactFaces:
+        """The contacts' supporting flat faces (:func:`reconstruction.face_planes.supporting_contact_faces`)."""
+        return supporting_contact_faces(self.points, self.normals)
+
+    def face_conflicts(self, transform: Transform) -> np.ndarray:
+        """(n,) bool: contact i's supporting face, mapped, lands on another supporting face (centres
+        within ``face_match_radius_m``) facing the same side, and the two normals differ by more than
+        ``face_conflict_rad`` beyond both faces' tilts and the turn their curvature allows over the
+        centres' distance.
+
+        A flat face touched at several places knows its normal to a few degrees, so a transform that
+        turns one onto another by 20 deg is not a symmetry, however few contacts the face has: the
+        plane halving a wedge's top and bottom maps those exactly and its tall end face 20 deg off
+        onto itself, with most of the end face's images too far from a contact to be tested."""
+        faces, s = self.faces, self.s
+        conflicts = np.zeros(len(self.points), bool)
+        ids = np.flatnonzero(faces.fitted)
+        if len(ids) == 0:
+            return conflicts
+        m, t = transform
+        mapped_centres, mapped_normals = faces.centres[ids] @ m.T + t, faces.normals[ids] @ m.T
+        tree = cKDTree(faces.centres[ids])
+        for a, near in enumerate(tree.query_ball_point(mapped_centres, s.face_match_radius_m)):
+            if not near:
+                continue
+            i, near = ids[a], ids[np.asarray(near)]
+            angle = np.arccos(np.clip(faces.normals[near] @ mapped_normals[a], -1.0, 1.0))
+            turn = np.maximum(faces.curvature_per_m[i], faces.curvature_per_m[near]) * np.linalg.norm(
+                faces.centres[near] - mapped_centres[a], axis=1)
+            allowed = faces.tilt_rad[i] + faces.tilt_rad[near] + turn + s.face_conflict_rad
+            # faces facing opposite ways are the two sides of a thin wall, not one surface
+            conflicts[i] = bool(np.any((angle < np.pi / 2) & (angle > allowed)))
+        return conflicts
 
     def _free_limit(self, transform: Transform) -> float:
         """The free-space share allowed: half the typical one for a mirror containing the axis a

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from reconstruction.face_planes import FacePlanes, supporting_face_planes
-from reconstruction.synthetic_contacts import sample_contacts
+from reconstruction.face_planes import FacePlanes, supporting_contact_faces, supporting_face_planes
+from reconstruction.synthetic_contacts import ContactNoise, sample_contacts
 
 HALF = np.array([0.06, 0.04, 0.025])
 
@@ -124,3 +124,29 @@ def test_normals_must_match_the_contacts():
     points, normals = _box_contacts(n=20)
     with pytest.raises(ValueError, match="normals must be one per contact"):
         supporting_face_planes(points, normals[:3])
+
+
+def test_each_contacts_face_is_a_supporting_plane_and_knows_its_normal_better_than_the_contact():
+    points, normals = _box_contacts()
+    faces = supporting_contact_faces(points, normals)
+    planes = supporting_face_planes(points, normals)
+    # the same faces as the supporting planes, one per contact that has one
+    assert faces.fitted.sum() == len(planes) > 100
+    assert np.allclose(np.sort(faces.centres[faces.fitted], axis=0), np.sort(planes.centres, axis=0))
+    assert np.array_equal(np.isinf(faces.tilt_rad), ~faces.fitted)
+    true_normals = np.vstack([np.eye(3), -np.eye(3)])
+    error = np.arccos(np.clip(np.max(faces.normals[faces.fitted] @ true_normals.T, axis=1), -1, 1))
+    own = np.arccos(np.clip(np.max(normals[faces.fitted] @ true_normals.T, axis=1), -1, 1))
+    assert np.median(error) < np.median(own) / 3
+    assert np.mean(error <= faces.tilt_rad[faces.fitted]) > 0.9
+
+
+@pytest.mark.parametrize("radius", [0.03, 0.05, 0.08])
+def test_a_faces_curvature_bound_covers_a_spheres_curvature(radius):
+    # a disc of width w on a sphere departs from its plane by w^2 / (16 R): the bound is 1 / R for
+    # a disc and more for other patches, never less
+    sphere = trimesh.creation.icosphere(subdivisions=5, radius=radius)
+    points, normals = sample_contacts(sphere, 400, noise=ContactNoise.off(), seed=1)[:2]
+    faces = supporting_contact_faces(points, normals)
+    assert faces.fitted.sum() > 100
+    assert np.all(faces.curvature_per_m[faces.fitted] >= 1.0 / radius)
