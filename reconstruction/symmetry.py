@@ -76,7 +76,7 @@ from scipy.spatial.transform import Rotation
 from scipy.stats import binom
 
 from common.directions import fibonacci_directions, perpendicular_frame
-from reconstruction.face_planes import ContactFaces, supporting_contact_faces
+from reconstruction.face_planes import DEFAULT_FLATNESS_M, ContactFaces, supporting_contact_faces
 from reconstruction.outside_evidence import DEFAULT_FACET_FRACTION, DEFAULT_LOCAL_NEIGHBOURS
 
 #: A rigid map ``x -> M @ x + t``: (M (3, 3), t (3,)), object frame, metres.
@@ -104,7 +104,8 @@ class SymmetrySettings:
     (:meth:`Symmetry.images`); ``min_contacts``: fewer contacts say nothing;
     ``face_match_radius_m`` / ``face_conflict_rad``: how near a face's mapped centre must lie to
     another face's centre to be compared, and by how much more than both faces' tilt and curvature
-    allowances their normals may not differ (:meth:`_ImageJudge.face_conflicts`).
+    allowances their normals may not differ (:meth:`_ImageJudge.face_conflicts`), for faces at least
+    ``face_min_width_m`` wide (a narrow strip's normal is not known about its long axis).
     """
 
     match_radius_m: float = 0.008
@@ -132,6 +133,7 @@ class SymmetrySettings:
     max_images: int = 1000
     min_contacts: int = 20
     face_match_radius_m: float = 5e-3
+    face_min_width_m: float = 0.010
     face_conflict_rad: float = float(np.radians(10.0))
 
 
@@ -442,8 +444,9 @@ class _ImageJudge:
         return supporting_contact_faces(self.points, self.normals)
 
     def face_conflicts(self, transform: Transform) -> np.ndarray:
-        """(n,) bool: contact i's supporting face, mapped, lands on another supporting face (centres
-        within ``face_match_radius_m``) facing the same side, and the two normals differ by more than
+        """(n,) bool: contact i's supporting face (at least ``face_min_width_m`` wide), mapped, lands
+        on another such face (centres within ``face_match_radius_m``, the mapped centre within the
+        faces' flatness of its plane) facing the same side, and the two normals differ by more than
         ``face_conflict_rad`` beyond both faces' tilts and the turn their curvature allows over the
         centres' distance.
 
@@ -453,7 +456,7 @@ class _ImageJudge:
         onto itself, with most of the end face's images too far from a contact to be tested."""
         faces, s = self.faces, self.s
         conflicts = np.zeros(len(self.points), bool)
-        ids = np.flatnonzero(faces.fitted)
+        ids = np.flatnonzero(faces.fitted & (faces.widths_m >= s.face_min_width_m))
         if len(ids) == 0:
             return conflicts
         m, t = transform
@@ -464,11 +467,13 @@ class _ImageJudge:
                 continue
             i, near = ids[a], ids[np.asarray(near)]
             angle = np.arccos(np.clip(faces.normals[near] @ mapped_normals[a], -1.0, 1.0))
-            turn = np.maximum(faces.curvature_per_m[i], faces.curvature_per_m[near]) * np.linalg.norm(
-                faces.centres[near] - mapped_centres[a], axis=1)
+            offset = mapped_centres[a] - faces.centres[near]
+            turn = np.maximum(faces.curvature_per_m[i], faces.curvature_per_m[near]) * np.linalg.norm(offset, axis=1)
             allowed = faces.tilt_rad[i] + faces.tilt_rad[near] + turn + s.face_conflict_rad
-            # faces facing opposite ways are the two sides of a thin wall, not one surface
-            conflicts[i] = bool(np.any((angle < np.pi / 2) & (angle > allowed)))
+            # on the other face: not past a sharp edge beside it (a prism's face mirrored onto its
+            # neighbour), nor on the far side of a thin wall
+            on_face = np.abs(np.einsum("ij,ij->i", offset, faces.normals[near])) <= DEFAULT_FLATNESS_M
+            conflicts[i] = bool(np.any(on_face & (angle < np.pi / 2) & (angle > allowed)))
         return conflicts
 
     def _free_limit(self, transform: Transform) -> float:
