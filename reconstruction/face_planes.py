@@ -20,6 +20,11 @@ mm radius, a strip along a cylinder's side). Such a plane can tilt by up to ``fl
 patch's half width where the contacts lie unevenly across it, so each plane's tilt allowance is at
 least that: a narrow patch frees little.
 
+:func:`supporting_contact_faces` gives each contact its supporting face with how well the face's
+normal is known (its tilt and a bound on the curvature its departure from flat allows): the
+symmetry search refuses a transform that turns one such face onto another
+(:mod:`reconstruction.symmetry`).
+
 Written here rather than taken from a library: a statement about measured contacts and normals,
 not a mesh operation.
 """
@@ -200,6 +205,8 @@ def supporting_contact_faces(contacts: np.ndarray, normals: np.ndarray,
     """
     contacts = np.asarray(contacts, float).reshape(-1, 3)
     normals = np.asarray(normals, float).reshape(-1, 3)
+    if normals.shape != contacts.shape:
+        raise ValueError(f"normals must be one per contact, shape {contacts.shape}, got {normals.shape}")
     faces = _fitted_faces(contacts, normals, DEFAULT_FACE_RADIUS_M, DEFAULT_FACE_ANGLE_RAD,
                           DEFAULT_FLATNESS_M, DEFAULT_MIN_CONTACTS)
     fitted = faces.fitted.copy()

@@ -122,8 +122,9 @@ def test_a_narrow_patch_on_a_bottles_shoulder_is_not_supporting_with_its_cap_in_
 
 def test_normals_must_match_the_contacts():
     points, normals = _box_contacts(n=20)
-    with pytest.raises(ValueError, match="normals must be one per contact"):
-        supporting_face_planes(points, normals[:3])
+    for fit in (supporting_face_planes, supporting_contact_faces):
+        with pytest.raises(ValueError, match="normals must be one per contact"):
+            fit(points, normals[:3])
 
 
 def test_each_contacts_face_is_a_supporting_plane_and_knows_its_normal_better_than_the_contact():
