@@ -135,20 +135,22 @@ def supporting_face_planes(contacts: np.ndarray, normals: np.ndarray, radius_m: 
     if len(contacts) < min_contacts:
         return empty
     faces = _fitted_faces(contacts, normals, radius_m, angle_rad, flatness_m, min_contacts)
-    fitted = np.flatnonzero(faces.fitted)
-    centres = list(faces.centres[fitted])
+    kept = np.flatnonzero(faces.fitted)
+    kept = kept[_supporting(faces.centres[kept], faces.normals[kept], contacts, margin_m, tolerance_rad)]
+    if not len(kept):
+        return empty
     # a curved patch's least-squares plane tilts by up to its departure from flat over its half
     # width (on a cylinder's side, towards the axis where the contacts lie unevenly): this plane
     # frees space in front of it, so it is allowed the whole flatness
-    tilts = [max(tolerance_rad, float(np.arctan2(2.0 * flatness_m, w))) for w in faces.widths_m[fitted]]
-    fitted = list(faces.normals[fitted])
-    if not centres:
-        return empty
-    # supporting: judged with the smallest allowance, so that a narrow patch's larger one (which
-    # frees less in front of it) does not also let contacts in front of it pass
-    strict = FacePlanes(np.array(centres), np.array(fitted), margin_m, tolerance_rad)
-    supporting = ~strict.in_front_of_each(contacts).any(axis=0)
-    return FacePlanes(strict.centres[supporting], strict.normals[supporting], margin_m, np.array(tilts)[supporting])
+    tilts = np.maximum(tolerance_rad, np.arctan2(2.0 * flatness_m, faces.widths_m[kept]))
+    return FacePlanes(faces.centres[kept], faces.normals[kept], margin_m, tilts)
+
+
+def _supporting(centres, normals, contacts, margin_m, tolerance_rad) -> np.ndarray:
+    """(m,) bool: no contact lies in front of each plane, judged with the smallest allowance, so that
+    a narrow patch's larger one (which frees less in front of it) does not also let contacts in
+    front of it pass."""
+    return ~FacePlanes(centres, normals, margin_m, tolerance_rad).in_front_of_each(contacts).any(axis=0)
 
 
 @dataclass(frozen=True)
@@ -210,10 +212,9 @@ def supporting_contact_faces(contacts: np.ndarray, normals: np.ndarray,
     faces = _fitted_faces(contacts, normals, DEFAULT_FACE_RADIUS_M, DEFAULT_FACE_ANGLE_RAD,
                           DEFAULT_FLATNESS_M, DEFAULT_MIN_CONTACTS)
     fitted = faces.fitted.copy()
-    if fitted.any():
-        ids = np.flatnonzero(fitted)
-        strict = FacePlanes(faces.centres[ids], faces.normals[ids], DEFAULT_FACE_MARGIN_M, DEFAULT_FACE_TOLERANCE_RAD)
-        fitted[ids[strict.in_front_of_each(contacts).any(axis=0)]] = False
+    ids = np.flatnonzero(fitted)
+    fitted[ids] = _supporting(faces.centres[ids], faces.normals[ids], contacts, DEFAULT_FACE_MARGIN_M,
+                              DEFAULT_FACE_TOLERANCE_RAD)
     widths = np.where(fitted, faces.widths_m, 0.0)
     with np.errstate(divide="ignore"):
         tilt = np.where(fitted, np.maximum(min_tilt_rad, np.arctan2(2.0 * faces.departures_m, widths)), np.inf)

@@ -443,6 +443,13 @@ class _ImageJudge:
         """The contacts' supporting flat faces (:func:`reconstruction.face_planes.supporting_contact_faces`)."""
         return supporting_contact_faces(self.points, self.normals)
 
+    @cached_property
+    def _wide_faces(self) -> tuple[np.ndarray, cKDTree | None]:
+        """The contacts whose face is at least ``face_min_width_m`` wide, and a tree of those faces'
+        centres (built once: every candidate that passes the other tests is checked)."""
+        ids = np.flatnonzero(self.faces.fitted & (self.faces.widths_m >= self.s.face_min_width_m))
+        return ids, (cKDTree(self.faces.centres[ids]) if len(ids) else None)
+
     def face_conflicts(self, transform: Transform) -> np.ndarray:
         """(n,) bool: contact i's supporting face (at least ``face_min_width_m`` wide), mapped, lands
         on another such face (centres within ``face_match_radius_m``, the mapped centre within the
@@ -456,12 +463,11 @@ class _ImageJudge:
         onto itself, with most of the end face's images too far from a contact to be tested."""
         faces, s = self.faces, self.s
         conflicts = np.zeros(len(self.points), bool)
-        ids = np.flatnonzero(faces.fitted & (faces.widths_m >= s.face_min_width_m))
+        ids, tree = self._wide_faces
         if len(ids) == 0:
             return conflicts
         m, t = transform
         mapped_centres, mapped_normals = faces.centres[ids] @ m.T + t, faces.normals[ids] @ m.T
-        tree = cKDTree(faces.centres[ids])
         for a, near in enumerate(tree.query_ball_point(mapped_centres, s.face_match_radius_m)):
             if not near:
                 continue
