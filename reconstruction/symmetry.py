@@ -10,9 +10,12 @@ direction.
 A candidate transform ``x -> M x + t`` is judged by the images of all contacts:
 
 * *consistent*: an image lies within ``match_radius_m`` of a contact whose normal agrees with the
-  image's normal (within ``normal_cone_rad``) and within ``plane_tolerance_m`` of that contact's
-  tangent plane;
-* *inconsistent*: such a contact is near but its tangent plane is not (a testable image that fails);
+  image's normal (within ``normal_cone_rad``) and within ``plane_tolerance_m`` of the plane through
+  that contact across the contact's normal (its tangent plane) or across the bisector of the two
+  normals (a chord of a circle is perpendicular to the bisector of its ends' normals, so a rim's
+  curvature between the two does not count against the image as it does against the tangent
+  plane; the search's smooth score uses the tangent plane alone);
+* *inconsistent*: such a contact is near but its plane is not (a testable image that fails);
 * *outside*: the image lies outside the contacts' convex hull by more than ``hull_margin_m`` and
   more than ``hull_gap_fraction`` of the gap it lies in front of (the smaller of its hull facet's
   circumradius and the distance from its foot on the facet to the third nearest contact): between
@@ -105,7 +108,9 @@ class SymmetrySettings:
     ``face_match_radius_m`` / ``face_conflict_rad``: how near a face's mapped centre must lie to
     another face's centre to be compared, and by how much more than both faces' tilt and curvature
     allowances their normals may not differ (:meth:`_ImageJudge.face_conflicts`), for faces at least
-    ``face_min_width_m`` wide (a narrow strip's normal is not known about its long axis).
+    ``face_min_width_m`` wide (a narrow strip's normal is not known about its long axis);
+    ``across_bisector``: the judge also measures an image's distance across the bisector of its
+    and the contact's normals, not only along the contact's normal (:meth:`_ImageJudge._residuals`).
     """
 
     match_radius_m: float = 0.008
@@ -135,6 +140,7 @@ class SymmetrySettings:
     face_match_radius_m: float = 5e-3
     face_min_width_m: float = 0.010
     face_conflict_rad: float = float(np.radians(10.0))
+    across_bisector: bool = True
 
 
 @dataclass(frozen=True)
@@ -346,10 +352,17 @@ class _ImageJudge:
         space or solid, deeper than ``free_depth_m`` and ``free_confidence`` posterior stds."""
         return (np.abs(mean) > self.s.free_depth_m) & (np.abs(mean) > self.s.free_confidence * std)
 
-    def _residuals(self, transform: Transform, neighbours: int = 4):
-        """(n, 3) the images, (n,) distance of each image to the tangent plane of the best agreeing
-        contact within the match radius (inf: none near), (n,) its distance outside the hull and
-        (n,) int the hull facet it lies farthest in front of."""
+    def _residuals(self, transform: Transform, neighbours: int = 4, across_bisector: bool = False):
+        """(n, 3) the images, (n,) distance of each image to the plane of the best agreeing contact
+        within the match radius (inf: none near), (n,) its distance outside the hull and (n,) int
+        the hull facet it lies farthest in front of.
+
+        The plane is the contact's tangent plane or, with ``across_bisector``, the nearer of it and
+        the plane through the contact across the bisector of the contact's and the image's normals:
+        a chord of a circle is perpendicular to the bisector of its ends' normals, so between two
+        points of a sphere or a rim the second is exact where the tangent plane misses an image 8 mm
+        along a rim of 10 mm radius by 3 mm; near a sharp edge, where noisy normals differ for
+        another reason, the tangent plane can be the nearer."""
         m, t = transform
         q, qn = self.points @ m.T + t, self.normals @ m.T
         dist, idx = self.tree.query(q, k=neighbours, distance_upper_bound=self.s.match_radius_m)
@@ -357,7 +370,12 @@ class _ImageJudge:
         idx = np.where(near, idx, 0)
         contact_normals = self.normals[idx]  # (n, k, 3)
         agrees = near & (np.einsum("ikj,ij->ik", contact_normals, qn) > self.cos_cone)
-        off_plane = np.abs(np.einsum("ikj,ikj->ik", q[:, None, :] - self.points[idx], contact_normals))
+        chord = q[:, None, :] - self.points[idx]
+        off_plane = np.abs(np.einsum("ikj,ikj->ik", chord, contact_normals))
+        if across_bisector:  # agreeing normals are within the cone, so their sum is never near zero
+            bisector = contact_normals + qn[:, None, :]
+            bisector /= np.linalg.norm(bisector, axis=2, keepdims=True)
+            off_plane = np.minimum(off_plane, np.abs(np.einsum("ikj,ikj->ik", chord, bisector)))
         residual = np.min(np.where(agrees, off_plane, np.inf), axis=1)
         return (q, residual, *self._outside_hull(q))
 
@@ -408,7 +426,7 @@ class _ImageJudge:
     def fractions(self, transform: Transform) -> dict:
         """Shares of the images: testable, consistent, outside the hull, in free space or solid;
         and ``inconsistent_count``, the testable images that are not consistent."""
-        q, residual, outside, facet = self._residuals(transform)
+        q, residual, outside, facet = self._residuals(transform, across_bisector=self.s.across_bisector)
         testable = np.isfinite(residual)
         consistent = testable & (residual < self.s.plane_tolerance_m)
         free = 0.0

@@ -198,15 +198,17 @@ def test_one_image_off_a_contacts_tangent_plane_does_not_refuse_a_true_mirror():
     # contacts and 3 free-space rows. 24 images of its true mirror x = 0 are testable and one
     # misses its neighbour's tangent plane by 2.7 mm, both contacts within 0.1 mm of the truth: the
     # neighbour's normal error over the match radius. 97 % of 24 allows none, and the tray was
-    # meshed without symmetry (3.18 mm; with the mirror 2.55).
+    # meshed without symmetry (3.18 mm; with the mirror 2.55). Across the two normals' bisector
+    # the image is within the tolerance.
     points, normals, gpis = _recorded_loop_field("tray_loop_field.npz", [0.1114, 0.1036, 0.0452])
-    settings = SymmetrySettings()
+    tangent = SymmetrySettings(across_bisector=False)
     mirror = reflection(np.array([1.0, 0.0, 0.0]), 0.0)
-    judge = _ImageJudge(points, normals, gpis, settings)
+    judge = _ImageJudge(points, normals, gpis, tangent)
     share = judge.fractions(mirror)
-    assert share["share"] < settings.min_consistent_share and share["inconsistent_count"] == 1
+    assert share["share"] < tangent.min_consistent_share and share["inconsistent_count"] == 1
     assert judge.accepts(mirror)
-    assert not _ImageJudge(points, normals, gpis, replace(settings, consistency_exceptions=0)).accepts(mirror)
+    assert not _ImageJudge(points, normals, gpis, replace(tangent, consistency_exceptions=0)).accepts(mirror)
+    assert _ImageJudge(points, normals, gpis, SymmetrySettings()).fractions(mirror)["inconsistent_count"] == 0
     tray = objects.load("generated:tray/0").mesh
     surface, _ = trimesh.sample.sample_surface(tray, 2000, seed=0)
     found = find_symmetry(points, normals, gpis)
@@ -427,3 +429,36 @@ def test_a_face_turned_onto_itself_conflicts_only_beyond_its_allowance(degrees, 
     centre = judge.faces.centres[end].mean(axis=0)
     turn = rotation(np.array([0.0, 1.0, 0.0]), centre, np.radians(degrees))
     assert judge.face_conflicts(turn)[end].any() == conflict
+
+
+def test_an_image_on_a_sphere_is_off_its_neighbours_tangent_plane_but_not_off_the_bisectors_plane():
+    # closed form: two points of a sphere of radius R whose normals are theta apart lie
+    # R (1 - cos theta) apart along either normal, and on one plane across their normals' bisector
+    radius = 0.01
+    directions = np.random.default_rng(3).normal(size=(300, 3))
+    normals = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    points = radius * normals
+    judge = _ImageJudge(points, normals, None, SymmetrySettings())
+    turn = rotation(np.array([0.3, -0.2, 1.0]) / np.linalg.norm([0.3, -0.2, 1.0]), np.zeros(3), np.radians(37.0))
+    images, tangent, _, _ = judge._residuals(turn, neighbours=len(points))
+    _, bisector, _, _ = judge._residuals(turn, neighbours=len(points), across_bisector=True)
+    tested = np.isfinite(tangent)
+    assert tested.sum() > 100
+    cos_theta = images[tested] @ points.T / radius ** 2  # (tested, contacts)
+    near = np.linalg.norm(images[tested][:, None, :] - points[None], axis=2) < judge.s.match_radius_m
+    agreeing = near & (cos_theta > np.cos(judge.s.normal_cone_rad))
+    expected = np.min(np.where(agreeing, radius * (1.0 - cos_theta), np.inf), axis=1)
+    np.testing.assert_allclose(tangent[tested], expected, atol=1e-12)
+    assert np.isfinite(bisector[tested]).all() and np.abs(bisector[tested]).max() < 1e-12
+
+
+def test_a_generated_plates_axis_is_accepted_at_200_contacts_as_at_100():
+    # tuning plate/1, draw 0 of the faithfulness benchmark: against the contacts' tangent planes 5
+    # of 96 images of a 37 deg turn about the found axis missed by the rim's curvature, and the
+    # revolution found at 100 contacts was refused at 200 (0.59 -> 0.94 mm)
+    plate = objects.load("generated:plate/1").mesh
+    for count in (100, 200):
+        points, normals, _, _ = sample_contacts(plate, count, seed=100)
+        found = GPIS(bounds=_bounds(plate)).fit(points, normals).symmetry()
+        assert found.kind == "revolution"
+        assert abs(found.axis[1][2]) > 0.999
