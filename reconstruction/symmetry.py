@@ -372,9 +372,9 @@ class _ImageJudge:
         agrees = near & (np.einsum("ikj,ij->ik", contact_normals, qn) > self.cos_cone)
         chord = q[:, None, :] - self.points[idx]
         off_plane = np.abs(np.einsum("ikj,ikj->ik", chord, contact_normals))
-        if across_bisector:  # agreeing normals are within the cone, so their sum is never near zero
+        if across_bisector:  # agreeing normals are within the cone, so only others' sum can vanish
             bisector = contact_normals + qn[:, None, :]
-            bisector /= np.linalg.norm(bisector, axis=2, keepdims=True)
+            bisector /= np.where(agrees, np.linalg.norm(bisector, axis=2), 1.0)[..., None]
             off_plane = np.minimum(off_plane, np.abs(np.einsum("ikj,ikj->ik", chord, bisector)))
         residual = np.min(np.where(agrees, off_plane, np.inf), axis=1)
         return (q, residual, *self._outside_hull(q))
