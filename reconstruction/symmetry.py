@@ -37,8 +37,13 @@ surface the GPIS has not seen, and a field that misplaces its own contacts by se
 (thin walls touched through the loop) misplaces them as often; and no supporting flat face of the
 contacts (several contacts on one plane, its normal known to a few degrees) is turned onto another
 by more than their errors allow (:meth:`_ImageJudge.face_conflicts`: the plane halving a wedge's
-top and bottom turns its end face 20 deg). The defaults were chosen on the generated tuning split
-(BENCHMARKS.md).
+top and bottom turns its end face 20 deg); and the GPIS predicts the images no worse than it
+predicts its own contacts, each left out (:meth:`_ImageJudge._images_worse_predicted`): a body
+with no symmetry often has one it nearly has (a blob's axis, a banana's mirror) whose images pass
+every test above within a millimetre of the surface, but off it where the contacts already pin the
+surface, so their standardised GPIS values ``|mean| / std`` are larger than a left-out contact's,
+where a true symmetry's images, unseen points of the surface, are like it. The defaults were
+chosen on the generated tuning split (BENCHMARKS.md).
 
 Search. An axis of revolution first: every normal line of a surface of revolution meets its axis,
 so the axis is fitted to the contacts' normal lines (robust least squares over a hemisphere of
@@ -76,7 +81,7 @@ from scipy.ndimage import map_coordinates
 from scipy.optimize import minimize
 from scipy.spatial import ConvexHull, cKDTree
 from scipy.spatial.transform import Rotation
-from scipy.stats import binom
+from scipy.stats import binom, mannwhitneyu
 
 from common.directions import fibonacci_directions, perpendicular_frame
 from reconstruction.face_planes import DEFAULT_FLATNESS_M, ContactFaces, supporting_contact_faces
@@ -110,7 +115,11 @@ class SymmetrySettings:
     allowances their normals may not differ (:meth:`_ImageJudge.face_conflicts`), for faces at least
     ``face_min_width_m`` wide (a narrow strip's normal is not known about its long axis);
     ``across_bisector``: the judge also measures an image's distance across the bisector of its
-    and the contact's normals, not only along the contact's normal (:meth:`_ImageJudge._residuals`).
+    and the contact's normals, not only along the contact's normal (:meth:`_ImageJudge._residuals`);
+    ``prediction_significance`` / ``max_prediction_ratio``: how unlikely by chance, and by how
+    many times larger in the median, the images' standardised GPIS values must be than the
+    left-out contacts' to refuse a transform (None: not tested;
+    :meth:`_ImageJudge._images_worse_predicted`).
     """
 
     match_radius_m: float = 0.008
@@ -141,6 +150,8 @@ class SymmetrySettings:
     face_min_width_m: float = 0.010
     face_conflict_rad: float = float(np.radians(10.0))
     across_bisector: bool = True
+    prediction_significance: float | None = 1e-3
+    max_prediction_ratio: float = 1.5
 
 
 @dataclass(frozen=True)
@@ -341,11 +352,41 @@ class _ImageJudge:
         points of the same surface the GPIS has not seen, so they may be judged free as often. Zero
         unless more contacts are misplaced than ``max_free`` of them would be by chance (a one-sided
         binomial test at ``misplaced_significance``): one misplaced contact among 46 says nothing."""
-        misplaced = self._deep(*self.gpis.leave_one_out())
+        misplaced = self._deep(*self._left_out)
         k, n = int(misplaced.sum()), len(misplaced)
         if k == 0 or binom.sf(k - 1, n, self.s.max_free) > self.s.misplaced_significance:
             return 0.0
         return k / n
+
+    @cached_property
+    def _left_out(self) -> tuple[np.ndarray, np.ndarray]:
+        """(n,) each contact's GPIS mean and (n,) its std with the contact left out (metres)."""
+        return self.gpis.leave_one_out()
+
+    def _images_worse_predicted(self, q: np.ndarray) -> bool:
+        """Whether the GPIS predicts the images ``q`` (k, 3) worse than it predicts its own contacts
+        left out: their standardised values ``|mean| / std`` larger by a one-sided Mann-Whitney test
+        below ``prediction_significance`` and with a median more than ``max_prediction_ratio`` times
+        the contacts'. Images of a true symmetry are points of the surface the GPIS has not seen,
+        like a contact left out; a near symmetry's images lie off the surface where the contacts
+        already pin it (the tuning split's blobs: medians up to 3.8 times the contacts', p down to
+        1e-38; BENCHMARKS.md, "A near symmetry's images are predicted worse than the contacts").
+        Only images inside the GPIS's region count."""
+        s = self.s
+        if s.prediction_significance is None or self.gpis is None or not self.gpis.use_normals:
+            return False
+        lo, hi = self.gpis.region
+        q = q[np.all((q >= lo) & (q <= hi), axis=1)]
+        if len(q) < 2:
+            return False
+        mean = np.asarray(self.gpis.mean(q), float)
+        std = np.sqrt(np.maximum(np.asarray(self.gpis.variance(q), float), 0.0))
+        images = np.abs(mean) / np.maximum(std, 1e-9)
+        left_mean, left_std = self._left_out
+        contacts = np.abs(left_mean) / np.maximum(left_std, 1e-9)
+        if np.median(images) <= s.max_prediction_ratio * np.median(contacts):
+            return False
+        return bool(mannwhitneyu(images, contacts, alternative="greater").pvalue < s.prediction_significance)
 
     def _deep(self, mean: np.ndarray, std: np.ndarray) -> np.ndarray:
         """(n,) bool: the GPIS mean puts these points (an image, or a contact left out) in free
@@ -454,7 +495,8 @@ class _ImageJudge:
                 and (f["share"] >= s.min_consistent_share or f["inconsistent_count"] <= s.consistency_exceptions)
                 and f["outside"] <= s.max_outside
                 and f["free"] <= min(self.free_allowance, self._free_limit(transform))
-                and not self.face_conflicts(transform).any())
+                and not self.face_conflicts(transform).any()
+                and not self._images_worse_predicted(self.points @ transform[0].T + transform[1]))
 
     @cached_property
     def faces(self) -> ContactFaces:
