@@ -47,8 +47,8 @@ class ContactNoise:
         return cls(0.0, 0.0, 0.0)
 
 
-def sample_contacts(mesh, n: int, noise: ContactNoise = ContactNoise(), seed: int = 0
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def sample_contacts(mesh, n: int, noise: ContactNoise = ContactNoise(), seed: int = 0,
+                    pool: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Area-uniform contacts on ``mesh`` with noise.
 
     Parameters
@@ -57,6 +57,10 @@ def sample_contacts(mesh, n: int, noise: ContactNoise = ContactNoise(), seed: in
         Ground truth, object frame, metres, outward normals.
     n : int
         Number of contacts.
+    pool : int, optional
+        Draw a seeded sequence of ``pool`` contacts and return its first ``n``: with the same seed
+        and pool, more contacts extend fewer, as an exploration's do (nested draws; ``n <= pool``).
+        None: ``n`` contacts drawn on their own (a draw of 200 does not contain the draw of 100).
 
     Returns
     -------
@@ -67,6 +71,10 @@ def sample_contacts(mesh, n: int, noise: ContactNoise = ContactNoise(), seed: in
     """
     if n < 1:
         raise ValueError(f"need at least one contact, got n={n}")
+    if pool is not None:
+        if pool < n:
+            raise ValueError(f"a pool of {pool} contacts cannot give {n}: give pool >= n")
+        return tuple(a[:n] for a in sample_contacts(mesh, pool, noise, seed))
     from objects.sampling import sample_surface
 
     rng = np.random.default_rng(seed)

@@ -46,3 +46,17 @@ def test_bad_parameters():
         ContactNoise(normal_std_m=-1)
     with pytest.raises(ValueError, match="at least one"):
         sample_contacts(trimesh.creation.box(), 0)
+
+
+def test_a_pooled_draw_is_the_front_of_one_sequence_so_more_contacts_extend_fewer():
+    box = trimesh.creation.box((0.1, 0.06, 0.04))
+    few = sample_contacts(box, 50, seed=7, pool=400)
+    more = sample_contacts(box, 300, seed=7, pool=400)
+    for a, b in zip(few, more):
+        np.testing.assert_array_equal(a, b[:50])
+    whole = sample_contacts(box, 400, seed=7)  # the pool itself, drawn on its own
+    np.testing.assert_array_equal(more[0], whole[0][:300])
+    # without a pool a larger draw is another draw, not an extension of the smaller one
+    assert not np.allclose(sample_contacts(box, 50, seed=7)[0], sample_contacts(box, 300, seed=7)[0][:50])
+    with pytest.raises(ValueError, match="pool >= n"):
+        sample_contacts(box, 500, seed=7, pool=400)
