@@ -19,6 +19,7 @@ Public API:
   (``GPIS.mesh(symmetry=True)``), less the images the hull and the GPIS both put off the surface
   (:func:`contradicted_images`);
 * metrics: :func:`surface_error` (-> :class:`SurfaceError`), :func:`shape_metrics`,
+  :func:`symmetric_rmse_standard_error` (how much of an RMSE is the samples' own scatter),
   :func:`point_cloud_metrics` (-> :class:`ShapeMetrics`: Chamfer, F-score, normal consistency),
   :func:`contact_coverage`, :func:`recess_error` (-> :class:`RecessError`: the insides against the
   rest); :func:`surface_topology` (-> :class:`Topology`: parts, genus,
@@ -59,6 +60,7 @@ _LAZY = {
     "FSCORE_THRESHOLDS_M": "reconstruction.metrics",
     "surface_error": "reconstruction.metrics",
     "shape_metrics": "reconstruction.metrics",
+    "symmetric_rmse_standard_error": "reconstruction.metrics",
     "point_cloud_metrics": "reconstruction.metrics",
     "contact_coverage": "reconstruction.metrics",
     "recess_error": "reconstruction.metrics",

@@ -233,6 +233,31 @@ def _rms(values: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(values))))
 
 
+def symmetric_rmse_standard_error(reconstruction_to_truth_m: np.ndarray,
+                                  truth_to_reconstruction_m: np.ndarray) -> float:
+    """Standard error of the symmetric position RMSE (the mean of the two directional RMSEs) that
+    comes from sampling the surfaces, metres.
+
+    Each directional RMSE is ``sqrt(mean(d^2))`` over independent area-uniform samples, so by the
+    delta method its standard error is ``std(d^2) / (2 RMSE sqrt(n))``; the two directions' samples
+    are independent, so the mean's is half the root of the sum of their squares. Two
+    reconstructions of one object whose RMSEs differ by less than about twice the root of the sum
+    of their squared errors are not told apart by their samples.
+
+    Parameters
+    ----------
+    reconstruction_to_truth_m, truth_to_reconstruction_m : (n,) and (m,) float
+        Per-sample distances to the other surface, metres, unsquared (at least two each).
+    """
+    errors = []
+    for d in (np.asarray(reconstruction_to_truth_m, float), np.asarray(truth_to_reconstruction_m, float)):
+        if d.ndim != 1 or len(d) < 2:
+            raise ValueError("symmetric_rmse_standard_error needs at least two distance samples per direction")
+        rms = _rms(d)
+        errors.append(0.0 if rms == 0 else float(np.std(d ** 2, ddof=1)) / (2.0 * rms * np.sqrt(len(d))))
+    return 0.5 * float(np.hypot(*errors))
+
+
 def surface_error(reconstruction: trimesh.Trimesh, truth: trimesh.Trimesh, n_samples: int = 20000,
                   seed: int = 0, sharp_edges: np.ndarray | None = None,
                   n_edge_samples: int = 2000) -> SurfaceError:

@@ -234,3 +234,20 @@ def test_zero_area_faces_change_nothing():
     moved.apply_translation([0.002, 0.0, 0.0])
     padded = trimesh.Trimesh(moved.vertices, np.vstack([moved.faces, [[0, 1, 1], [2, 2, 2]]]), process=False)
     assert surface_error(padded, truth, n_samples=3000) == surface_error(moved, truth, n_samples=3000)
+
+
+def test_the_rmse_standard_error_is_the_scatter_of_repeated_samplings():
+    # independent answer: draw the two directions' distances many times from fixed, skewed
+    # distributions and measure how much the symmetric RMSE scatters from draw to draw
+    from reconstruction.metrics import symmetric_rmse_standard_error
+
+    rng = np.random.default_rng(5)
+    n, repeats = 2000, 600
+    forward = rng.exponential(1e-3, size=(repeats, n))        # a tail of phantom surface
+    backward = np.abs(rng.normal(0.0, 0.4e-3, size=(repeats, n)))
+    rmse = 0.5 * (np.sqrt(np.mean(forward ** 2, axis=1)) + np.sqrt(np.mean(backward ** 2, axis=1)))
+    predicted = [symmetric_rmse_standard_error(f, b) for f, b in zip(forward[:50], backward[:50])]
+    assert np.median(predicted) == pytest.approx(np.std(rmse, ddof=1), rel=0.15)
+    assert symmetric_rmse_standard_error(np.full(10, 2e-3), np.full(10, 1e-3)) < 1e-15  # no scatter, no error
+    with pytest.raises(ValueError, match="two distance samples"):
+        symmetric_rmse_standard_error(np.array([1e-3]), np.ones(5))
