@@ -4,7 +4,11 @@ For every object of a set (``tuning`` / ``held-out``: the fixed splits of :mod:`
 ``registry``: the eight registry objects), N contacts (100 / 200 / 400) are sampled area-uniformly
 from the ground truth with the default sensor noise of :mod:`reconstruction.synthetic_contacts`
 (contact draws = sampling seeds 100, 101, ...), reconstructed by a GPIS method, meshed over the
-object's box grown by 20 % of its largest side, and compared with the truth.
+object's box grown by 20 % of its largest side, and compared with the truth. Draws are nested: the
+N contacts of a draw are the first N of one seeded sequence of ``NESTED_POOL`` (``sample_contacts``
+with ``pool``), so a draw's 400 contacts extend its 200 and those its 100, as an exploration's do,
+and "worse with more contacts" is a statement about contacts added, not about another draw's luck
+(``--independent-draws``: each N drawn on its own, the design before 2026-12).
 
 Metrics (both meshes sampled area-uniformly, ``--samples`` points per direction, distances to the
 closest point of the other surface; definitions of :func:`reconstruction.metrics.shape_metrics`):
@@ -16,7 +20,11 @@ closest point of the other surface; definitions of :func:`reconstruction.metrics
   within the threshold of the truth, and recall, the share of truth samples within it of the
   reconstruction);
 * extra handles: genus of the reconstruction minus the truth's (:mod:`reconstruction.topology`):
-  holes through thin walls and bridges across gaps, which the distances average away.
+  holes through thin walls and bridges across gaps, which the distances average away;
+* RMSE standard error: the scatter the samples alone give the RMSE
+  (:func:`reconstruction.metrics.symmetric_rmse_standard_error`). A draw is counted worse with more
+  contacts when its RMSE grows from one N to the next at all, by more than 0.01 mm, and by more
+  than twice the standard error of the difference (the samples cannot tell smaller steps apart).
 
 Prints per-family tables and a summary against the issue-10 targets per set, writes every result as
 JSON lines to ``--out`` (re-used: finished cases are not recomputed) and a figure of RMSE against
@@ -41,7 +49,7 @@ from objects.proximity import MeshProximity
 from objects.sampling import sample_surface
 from reconstruction.confidence import DEFAULT_MAX_STD_M
 from reconstruction.gpis import GPIS
-from reconstruction.metrics import shape_metrics
+from reconstruction.metrics import shape_metrics, symmetric_rmse_standard_error
 from reconstruction.outside_evidence import add_outside_evidence
 from reconstruction.synthetic_contacts import sample_contacts
 from reconstruction.topology import surface_topology
@@ -49,6 +57,8 @@ from reconstruction.topology import surface_topology
 #: The known rough location: the object's box grown by this fraction of its largest side.
 BOUNDS_PADDING = 0.2
 FIRST_DRAW_SEED = 100
+#: Nested draws take their contacts from the front of one seeded sequence this long.
+NESTED_POOL = 4000
 
 
 def _old_default(bounds):
@@ -191,15 +201,21 @@ def compare(reconstruction, truth, n_samples: int, seed: int) -> dict:
     standard = shape_metrics(forward, backward, forward_cos, backward_cos)
     rms = lambda v: float(np.sqrt(np.mean(np.square(v))))  # noqa: E731
     return dict(rmse_mm=1e3 * (rms(forward) + rms(backward)) / 2,
+                rmse_se_mm=1e3 * symmetric_rmse_standard_error(forward, backward),
                 p99_mm=1e3 * float(np.quantile(forward, 0.99)),
                 chamfer_mm=standard.chamfer_l1_mm, f1=standard.fscore_1mm, f2=standard.fscore_2mm,
                 extra_handles=surface_topology(reconstruction).genus - surface_topology(truth).genus)
 
 
 def run_case(method: str, name: str, truth, n_contacts: int, draw: int, resolution: int,
-             n_samples: int) -> dict:
+             n_samples: int, nested: bool = True) -> dict:
+    """One reconstruction scored (the module docstring's metrics); ``nested``: the draw's contacts
+    are the first ``n_contacts`` of its ``NESTED_POOL`` sequence, else drawn on their own."""
     seed = FIRST_DRAW_SEED + draw
-    points, normals, _, _ = sample_contacts(truth, n_contacts, seed=seed)
+    if nested and n_contacts > NESTED_POOL:
+        raise ValueError(f"nested draws hold at most {NESTED_POOL} contacts, asked for {n_contacts}: "
+                         "use --independent-draws")
+    points, normals, _, _ = sample_contacts(truth, n_contacts, seed=seed, pool=NESTED_POOL if nested else None)
     t0 = time.perf_counter()
     gp = METHODS[method](object_bounds(truth)).fit(points, normals)
     if method in EVIDENCE_VARIANTS:
@@ -216,11 +232,13 @@ def run_case(method: str, name: str, truth, n_contacts: int, draw: int, resoluti
         metrics = dict(rmse_mm=float("nan"), p99_mm=float("nan"), chamfer_mm=float("nan"),
                        f1=0.0, f2=0.0, error=str(exc))
     return dict(method=method, object=name, family=family_of(name), contacts=n_contacts, draw=draw,
-                fit_s=fit_s, resolution=resolution, **metrics)
+                draws="nested" if nested else "independent", fit_s=fit_s, resolution=resolution, **metrics)
 
 
 def _key(row: dict) -> tuple:
-    return row["method"], row["object"], row["contacts"], row["draw"], row["resolution"]
+    # rows written before nested draws existed were independent draws
+    return (row["method"], row["object"], row["contacts"], row["draw"], row["resolution"],
+            row.get("draws", "independent"))
 
 
 def load_results(path: Path | None) -> dict:
@@ -262,29 +280,54 @@ def _handles(per_object: dict, n: int) -> str:
 
 
 def summary(rows: list[dict], contacts: list[int]) -> str:
-    """Against the issue-10 targets: per-object means over draws at each N, monotonicity per draw."""
+    """Against the issue-10 targets: per-object means over draws at each N (the p99 also by the
+    worst draw), monotonicity per draw."""
     per_object = defaultdict(list)
     for r in rows:
         per_object[(r["object"], r["contacts"])].append(r)
     out = []
     for n in contacts:
         rmse = [np.nanmean([r["rmse_mm"] for r in v]) for (o, c), v in per_object.items() if c == n]
-        p99 = [np.nanmax([r["p99_mm"] for r in v]) for (o, c), v in per_object.items() if c == n]
+        p99 = [np.nanmean([r["p99_mm"] for r in v]) for (o, c), v in per_object.items() if c == n]
+        p99_worst = [np.nanmax([r["p99_mm"] for r in v]) for (o, c), v in per_object.items() if c == n]
         if rmse:
             worst = max(((np.nanmean([r["rmse_mm"] for r in v]), o) for (o, c), v in per_object.items()
                          if c == n))
             out.append(f"{n} contacts: RMSE median {np.median(rmse):.2f} mm, mean {np.mean(rmse):.2f}, "
                        f"max {worst[0]:.2f} ({worst[1]}); objects over 1.5 mm: "
-                       f"{int(np.sum(np.array(rmse) > 1.5))}/{len(rmse)}; p99 max {np.max(p99):.1f} mm, "
-                       f"objects over 3 mm: {int(np.sum(np.array(p99) > 3))}/{len(p99)}{_handles(per_object, n)}")
-    worse = []
-    by_draw = {(r["object"], r["draw"], r["contacts"]): r["rmse_mm"] for r in rows}
-    for (o, d, c), value in by_draw.items():
-        nxt = [m for m in contacts if m > c]
-        if nxt and (o, d, nxt[0]) in by_draw and by_draw[(o, d, nxt[0])] > value:
-            worse.append(f"{o} draw {d}: {c}->{nxt[0]} {value:.2f}->{by_draw[(o, d, nxt[0])]:.2f}")
-    out.append(f"worse with more contacts: {len(worse)}" + (" (" + "; ".join(worse) + ")" if worse else ""))
+                       f"{int(np.sum(np.array(rmse) > 1.5))}/{len(rmse)}; p99 (mean of draws) max "
+                       f"{np.max(p99):.1f} mm, objects over 3 mm: {int(np.sum(np.array(p99) > 3))}/{len(p99)} "
+                       f"(by the worst draw {int(np.sum(np.array(p99_worst) > 3))}){_handles(per_object, n)}")
+    steps = worse_with_more(rows, contacts)
+    above_noise = [s for s in steps if s["beyond_noise"]]
+    out.append(f"worse with more contacts: {len(steps)} steps, {sum(s['by_mm'] > 0.01 for s in steps)} by more "
+               f"than 0.01 mm, {len(above_noise)} by more than twice the standard error of the difference"
+               + (" (" + "; ".join(f"{s['object']} draw {s['draw']}: {s['from']}->{s['to']} {s['rmse_mm'][0]:.2f}->"
+                                   f"{s['rmse_mm'][1]:.2f}" for s in above_noise) + ")" if above_noise else ""))
     return "\n".join(out)
+
+
+def worse_with_more(rows: list[dict], contacts: list[int]) -> list[dict]:
+    """Every step from one number of contacts to the next at which a draw's RMSE grew.
+
+    Returns
+    -------
+    list of dict: ``object``, ``draw``, ``from``, ``to`` (contacts), ``rmse_mm`` (before, after),
+    ``by_mm`` (the growth) and ``beyond_noise``: the growth exceeds 0.01 mm and twice the standard
+    error of the difference (rows without ``rmse_se_mm``: the 0.01 mm alone).
+    """
+    by_draw = {(r["object"], r["draw"], r["contacts"]): r for r in rows}
+    steps = []
+    for (o, d, c), row in sorted(by_draw.items()):
+        nxt = [m for m in contacts if m > c]
+        after = by_draw.get((o, d, nxt[0])) if nxt else None
+        if after is None or not after["rmse_mm"] > row["rmse_mm"]:
+            continue
+        growth = after["rmse_mm"] - row["rmse_mm"]
+        noise = 2.0 * float(np.hypot(row.get("rmse_se_mm", 0.0), after.get("rmse_se_mm", 0.0)))
+        steps.append({"object": o, "draw": d, "from": c, "to": nxt[0], "by_mm": growth,
+                      "rmse_mm": (row["rmse_mm"], after["rmse_mm"]), "beyond_noise": growth > max(0.01, noise)})
+    return steps
 
 
 def figure(all_rows: dict[str, list[dict]], contacts: list[int], path: Path) -> None:
@@ -333,6 +376,8 @@ def main(argv: list[str] | None = None) -> int:
                         help=f"comma-separated GPIS methods: {', '.join(METHODS)}")
     parser.add_argument("--contacts", default="100,200,400")
     parser.add_argument("--draws", type=int, default=3, help="contact draws per object and N")
+    parser.add_argument("--independent-draws", action="store_true",
+                        help="draw each N's contacts on their own instead of nested (the design before 2026-12)")
     parser.add_argument("--quick", action="store_true",
                         help="the first object of each family and one draw (48 cases per method and set)")
     parser.add_argument("--objects", default=None, help="comma-separated names instead of --set")
@@ -358,8 +403,10 @@ def main(argv: list[str] | None = None) -> int:
         results_path = args.out / "results.jsonl"
     done = load_results(results_path)
     all_rows: dict[str, list[dict]] = {}
+    nested = not args.independent_draws
     text = [f"Machine: {platform.machine()}, python {platform.python_version()}; "
-            f"draws {draws}, resolution {args.resolution}, {args.samples} samples per direction"]
+            f"draws {draws} ({'nested' if nested else 'independent'}), resolution {args.resolution}, "
+            f"{args.samples} samples per direction"]
     for which in sets:
         names = args.objects.split(",") if args.objects else object_names(which, args.quick)
         rows = []
@@ -368,9 +415,10 @@ def main(argv: list[str] | None = None) -> int:
             for method in methods:
                 for n in contacts:
                     for draw in range(draws):
-                        key = (method, name, n, draw, args.resolution)
+                        key = (method, name, n, draw, args.resolution, "nested" if nested else "independent")
                         if key not in done:
-                            done[key] = run_case(method, name, truth, n, draw, args.resolution, args.samples)
+                            done[key] = run_case(method, name, truth, n, draw, args.resolution, args.samples,
+                                                 nested)
                             if results_path is not None:
                                 with open(results_path, "a") as fh:
                                     fh.write(json.dumps(done[key]) + "\n")

@@ -411,8 +411,9 @@ def test_a_wedges_plane_between_top_and_bottom_turns_its_end_face_and_is_refused
 
 
 def test_a_generated_wedge_keeps_its_true_plane_and_not_the_one_between_top_and_bottom():
-    # tuning wedge/1 with 200 contacts as the faithfulness benchmark draws them: without the face
-    # test the plane halving its top and bottom was accepted beside y = 0 (1.06 mm against 0.55)
+    # tuning wedge/1 with 200 contacts as the faithfulness benchmark drew them (independent
+    # draws): without the face test the plane halving its top and bottom was accepted beside
+    # y = 0 (1.06 mm against 0.55)
     wedge = objects.load("generated:wedge/1").mesh
     points, normals, _, _ = sample_contacts(wedge, 200, seed=100)
     found = GPIS(bounds=_bounds(wedge)).fit(points, normals).symmetry()
@@ -455,10 +456,11 @@ def test_an_image_on_a_sphere_is_off_its_neighbours_tangent_plane_but_not_off_th
 
 
 def test_a_generated_plates_axis_is_accepted_at_200_contacts():
-    # tuning plate/1, draw 0 of the faithfulness benchmark: against the contacts' tangent planes 5
-    # of 96 images of a 37 deg turn about the found axis missed by the rim's curvature, and the
-    # revolution found at 100 contacts was refused at 200 (0.59 -> 0.94 mm). Now 1 of 96 misses (2
-    # may); at 100 contacts the axis rests on 2 of 28 images and is not asserted here.
+    # tuning plate/1, draw 0 of the faithfulness benchmark (independent draws): against the
+    # contacts' tangent planes 5 of 96 images of a 37 deg turn about the found axis missed by the
+    # rim's curvature, and the revolution found at 100 contacts was refused at 200 (0.59 -> 0.94
+    # mm). Now 1 of 96 misses (2 may); at 100 contacts the axis rests on 2 of 28 images and is not
+    # asserted here.
     plate = objects.load("generated:plate/1").mesh
     points, normals, _, _ = sample_contacts(plate, 200, seed=100)
     found = GPIS(bounds=_bounds(plate)).fit(points, normals).symmetry()
@@ -481,10 +483,10 @@ def test_a_spheres_mirror_off_its_centre_has_images_the_gpis_predicts_worse_than
 
 def test_a_blobs_near_axis_is_refused_for_images_the_gpis_predicts_worse_than_its_contacts():
     # tuning blob/1 (a sphere displaced by an ellipsoid and bumps: no symmetry), draw 1 of the
-    # faithfulness benchmark at 200 contacts: the other tests accept an axis of revolution the
-    # blob nearly has (its truth turned lies within 1.1 mm of itself at the 90th percentile), and
-    # the mesh with its images was 0.46 mm from the truth; now a mirror the blob has more nearly
-    # is kept (0.20 mm)
+    # faithfulness benchmark (independent draws) at 200 contacts: the other tests accept an axis
+    # of revolution the blob nearly has (its truth turned lies within 1.1 mm of itself at the 90th
+    # percentile), and the mesh with its images was 0.46 mm from the truth; now a mirror the blob
+    # has more nearly is kept (0.20 mm)
     blob = objects.load("generated:blob/1").mesh
     points, normals, _, _ = sample_contacts(blob, 200, seed=101)
     gpis = GPIS(bounds=_bounds(blob)).fit(points, normals)
