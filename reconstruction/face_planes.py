@@ -25,6 +25,13 @@ normal is known (its tilt and a bound on the curvature its departure from flat a
 symmetry search refuses a transform that turns one such face onto another
 (:mod:`reconstruction.symmetry`).
 
+:func:`whole_face_planes` grows each supporting patch to the whole face: every contact within
+``flatness_m`` of its plane whose normal agrees, refitted. A face touched 20-40 times over 5-10 cm
+knows its normal to a fraction of a degree, where a 25 mm patch allows 5-17 deg, so its plane says
+where the object ends far along the face: past a wedge's corners and a prism's edges, where a
+smooth GPIS rounds a lobe 3-8 mm out of the object between the faces (BENCHMARKS.md, issue 10).
+``GPIS.mesh`` cuts its surface at them (:meth:`FacePlanes.clearance`).
+
 Written here rather than taken from a library: a statement about measured contacts and normals,
 not a mesh operation.
 """
@@ -63,23 +70,28 @@ class FacePlanes:
         A point on each plane (the centroid of its face's contacts), metres.
     normals : (m, 3) float
         Each plane's outward unit normal.
-    margin_m : float
-        What "in front of" means (:meth:`in_front`), metres.
+    margin_m : float or (m,) float
+        What "in front of" means (:meth:`in_front`), metres, for every plane or each.
     tolerance_rad : float or (m,) float
         Each plane's tilt allowed for its error, radians.
+    reach_m : float or (m,) float
+        How far from its centre each plane holds, metres: nothing lies in front of a plane farther
+        away (inf: everywhere).
     """
 
     centres: np.ndarray
     normals: np.ndarray
-    margin_m: float = DEFAULT_FACE_MARGIN_M
+    margin_m: float | np.ndarray = DEFAULT_FACE_MARGIN_M
     tolerance_rad: float | np.ndarray = DEFAULT_FACE_TOLERANCE_RAD
+    reach_m: float | np.ndarray = np.inf
 
     def __len__(self) -> int:
         return len(self.centres)
 
     def in_front(self, points: np.ndarray) -> np.ndarray:
         """(k,) bool: whether each point lies in front of some plane by more than ``margin_m`` plus
-        ``sin`` of that plane's tolerance times its distance from the plane's centre.
+        ``sin`` of that plane's tolerance times its distance from the plane's centre, within the
+        plane's reach.
 
         Parameters
         ----------
@@ -89,15 +101,44 @@ class FacePlanes:
 
     def in_front_of_each(self, points: np.ndarray) -> np.ndarray:
         """(k, m) bool: whether each point lies in front of each plane (see :meth:`in_front`)."""
-        from scipy.spatial.distance import cdist
-
         points = np.asarray(points, float).reshape(-1, 3)
         if not len(self) or not len(points):
             return np.zeros((len(points), len(self)), bool)
+        return np.concatenate([self._clearances(x) < 0
+                               for x in (points[s:s + _CHUNK] for s in range(0, len(points), _CHUNK))])
+
+    def clearance(self, points: np.ndarray) -> np.ndarray:
+        """(k,) float, metres: how far each point may still move out before it lies in front of a
+        plane (its allowance there minus its distance ahead of the plane, the least over the
+        planes); negative in front of one, +inf without planes. Its 0-level set is the boundary of
+        the space the planes leave: ``min(f, clearance)`` cuts a field ``f`` (positive inside) at it.
+
+        Parameters
+        ----------
+        points : (k, 3) float, metres
+        """
+        points = np.asarray(points, float).reshape(-1, 3)
+        if not len(self):
+            return np.full(len(points), np.inf)
+        if not len(points):
+            return np.zeros(0)
+        return np.concatenate([self._clearances(x).min(axis=1)
+                               for x in (points[s:s + _CHUNK] for s in range(0, len(points), _CHUNK))])
+
+    def margins_array(self) -> np.ndarray:
+        """(m,) float: each plane's margin, metres."""
+        return np.broadcast_to(np.asarray(self.margin_m, float), (len(self),)).copy()
+
+    def _clearances(self, x: np.ndarray) -> np.ndarray:
+        """(k, m): allowance minus the distance ahead, per point and plane (inf beyond its reach)."""
+        from scipy.spatial.distance import cdist
+
         offsets = np.einsum("ij,ij->i", self.centres, self.normals)
         sine = np.broadcast_to(np.sin(np.asarray(self.tolerance_rad, float)), (len(self),))
-        return np.concatenate([x @ self.normals.T - offsets - self.margin_m > sine * cdist(x, self.centres)
-                               for x in (points[s:s + _CHUNK] for s in range(0, len(points), _CHUNK))])
+        margin = np.broadcast_to(np.asarray(self.margin_m, float), (len(self),))
+        distance = cdist(x, self.centres)
+        clearance = margin + sine * distance - (x @ self.normals.T - offsets)
+        return np.where(distance <= np.asarray(self.reach_m, float), clearance, np.inf)
 
 
 def supporting_face_planes(contacts: np.ndarray, normals: np.ndarray, radius_m: float = DEFAULT_FACE_RADIUS_M,
@@ -261,3 +302,156 @@ def _fitted_faces(contacts, normals, radius_m, angle_rad, flatness_m, min_contac
         fitted[i], centres[i], fitted_normals[i] = True, centre, normal
         widths[i], departures[i] = float(np.ptp((contacts[face] - centre) @ axes[1])), departure
     return _Faces(fitted, centres, fitted_normals, widths, departures)
+
+
+#: A whole face's tilt allowance is this many standard errors of its fitted normal ...
+DEFAULT_WHOLE_FACE_SIGMAS = 3.0
+#: ... and at least this, radians.
+DEFAULT_MIN_WHOLE_FACE_TILT_RAD = float(np.radians(0.5))
+#: A whole face's margin is its contacts' largest departure from its plane plus this, metres ...
+DEFAULT_WHOLE_FACE_MARGIN_EXTRA_M = 0.4e-3
+#: ... and at least this, metres.
+DEFAULT_MIN_WHOLE_FACE_MARGIN_M = 0.7e-3
+#: A whole face is flat: its contacts depart from its plane by at most this RMS, metres (a curved
+#: surface's strip within the flatness departs more, and its plane does not hold far along it).
+DEFAULT_MAX_WHOLE_FACE_RMS_M = 0.3e-3
+#: A whole face has at least this many contacts: through a few contacts of a curved surface a
+#: plane can be a secant of a circle through them that tilts 5-6 deg off the surface there, with
+#: their departures no larger than a flat face's noise (a sphere of 100 mm radius, 5-7 contacts).
+DEFAULT_MIN_WHOLE_FACE_CONTACTS = 10
+#: A whole face's measured normals do not splay out from (or in to) its plane's normal by more than
+#: this many standard errors of their mean splay: on a curved surface they do, and a plane through a
+#: zone of a sphere fits its contacts as closely as a flat face's (see :func:`_splayed`).
+DEFAULT_SPLAY_SIGMAS = 2.5
+#: A whole face's plane holds this far beyond its farthest contact from its centre, metres: past its
+#: edges and corners, not across the object (a small patch's plane says nothing of a foot ring or a
+#: stem 3-4 cm away, which the smooth surface between may put in front of it).
+DEFAULT_WHOLE_FACE_REACH_M = 10.0e-3
+#: A whole face stays supporting with one contact in front of it whose normal lies more than this
+#: from the face's (a contact of the neighbouring face, smeared past the shared edge), radians ...
+DEFAULT_FORGIVEN_ANGLE_RAD = float(np.radians(60.0))
+#: ... by no more than this beyond the face's allowance, metres.
+DEFAULT_FORGIVEN_DEPTH_M = 3.0e-3
+
+
+def whole_face_planes(contacts: np.ndarray, normals: np.ndarray, angle_rad: float = DEFAULT_FACE_ANGLE_RAD,
+                      flatness_m: float = DEFAULT_FLATNESS_M, min_contacts: int = DEFAULT_MIN_CONTACTS,
+                      sigmas: float = DEFAULT_WHOLE_FACE_SIGMAS,
+                      min_tilt_rad: float = DEFAULT_MIN_WHOLE_FACE_TILT_RAD,
+                      margin_extra_m: float = DEFAULT_WHOLE_FACE_MARGIN_EXTRA_M,
+                      min_margin_m: float = DEFAULT_MIN_WHOLE_FACE_MARGIN_M,
+                      forgiven_angle_rad: float = DEFAULT_FORGIVEN_ANGLE_RAD,
+                      forgiven_depth_m: float = DEFAULT_FORGIVEN_DEPTH_M,
+                      position_noise_m: float = DEFAULT_FACE_POSITION_NOISE_M,
+                      max_rms_m: float = DEFAULT_MAX_WHOLE_FACE_RMS_M,
+                      reach_m: float = DEFAULT_WHOLE_FACE_REACH_M,
+                      min_face_contacts: int = DEFAULT_MIN_WHOLE_FACE_CONTACTS,
+                      splay_sigmas: float = DEFAULT_SPLAY_SIGMAS) -> FacePlanes:
+    """The contacts' supporting patches (:func:`supporting_face_planes`) grown to whole flat faces.
+
+    Each patch's plane takes every contact within ``flatness_m`` of it whose normal lies within
+    ``angle_rad`` of its normal, and is refitted through them (three times, or until fewer than
+    ``min_contacts`` remain); patches that grow to the same contacts give one face. A face is flat
+    when it has at least ``min_face_contacts`` contacts departing from its plane by at most
+    ``max_rms_m`` RMS and its measured normals do not splay (:func:`_splayed`, ``splay_sigmas``):
+    a curved surface's strip within the flatness, or a zone of a sphere through a few contacts, is
+    not a face. Its tilt allowance is ``sigmas`` standard errors of its fitted normal,
+    ``rms / (spread sqrt(k))`` for ``k`` contacts of RMS departure ``rms`` (at least
+    ``position_noise_m``) spread ``spread`` (RMS) across its narrower principal direction, and at
+    least ``min_tilt_rad``; its margin is its contacts' largest departure plus ``margin_extra_m``,
+    at least ``min_margin_m``; its reach is its farthest contact from its centre plus ``reach_m``.
+
+    A face is kept when no contact within its reach lies in front of it beyond that allowance,
+    except for at most one whose normal lies more than ``forgiven_angle_rad`` from the face's and
+    that lies no more than ``forgiven_depth_m`` beyond it: near a sharp edge a contact of the
+    neighbouring face smeared along its surface past the edge (the sampled contacts' 1 mm) lies in
+    front of this face's plane; a part of the object in front of the face is touched more than
+    once, or on a face that faces the same way.
+
+    Parameters
+    ----------
+    contacts : (n, 3) float, object frame, metres
+    normals : (n, 3) float, outward unit normals
+
+    Returns
+    -------
+    FacePlanes
+        One plane per whole face, with per-face ``margin_m``, ``tolerance_rad`` and ``reach_m``
+        arrays (none: empty).
+    """
+    contacts = np.asarray(contacts, float).reshape(-1, 3)
+    normals = np.asarray(normals, float).reshape(-1, 3)
+    if normals.shape != contacts.shape:
+        raise ValueError(f"normals must be one per contact, shape {contacts.shape}, got {normals.shape}")
+    for name, value in (("sigmas", sigmas), ("margin_extra_m", margin_extra_m), ("min_margin_m", min_margin_m),
+                        ("forgiven_depth_m", forgiven_depth_m), ("position_noise_m", position_noise_m)):
+        if not (np.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    for name, value in (("min_tilt_rad", min_tilt_rad), ("forgiven_angle_rad", forgiven_angle_rad)):
+        if not (0 <= value < np.pi):
+            raise ValueError(f"{name} must be an angle in [0, pi), got {value!r}")
+    empty = FacePlanes(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0))
+    patches = supporting_face_planes(contacts, normals, angle_rad=angle_rad, flatness_m=flatness_m,
+                                     min_contacts=min_contacts)
+    cosine = np.cos(angle_rad)
+    seen: set[bytes] = set()
+    centres, face_normals, tilts, margins, reaches = [], [], [], [], []
+    for centre, normal in zip(patches.centres, patches.normals):
+        members = None
+        for _ in range(3):
+            on = (np.abs((contacts - centre) @ normal) < flatness_m) & (normals @ normal > cosine)
+            if on.sum() < min_contacts:
+                break
+            centre = contacts[on].mean(axis=0)
+            _, spread, axes = np.linalg.svd(contacts[on] - centre, full_matrices=False)
+            normal = axes[2] * np.sign(axes[2] @ normal)
+            members = on
+        if members is None or members.tobytes() in seen:
+            continue
+        seen.add(members.tobytes())
+        k = int(members.sum())
+        if k < min_face_contacts:
+            continue
+        departure = (contacts[members] - centre) @ normal
+        across = spread[1] / np.sqrt(k)  # RMS spread across the narrower principal direction
+        rms = float(np.sqrt(np.mean(departure ** 2)))
+        if (np.max(np.abs(departure)) > flatness_m or rms > max_rms_m or not across > 0
+                or _splayed(contacts[members] - centre, normals[members], normal, splay_sigmas)):
+            continue
+        rms = max(rms, position_noise_m)
+        centres.append(centre)
+        face_normals.append(normal)
+        tilts.append(max(min_tilt_rad, float(np.arctan(sigmas * rms / (across * np.sqrt(k))))))
+        margins.append(max(min_margin_m, float(np.max(np.abs(departure))) + margin_extra_m))
+        reaches.append(float(np.max(np.linalg.norm(contacts[members] - centre, axis=1))) + reach_m)
+    if not centres:
+        return empty
+    faces = FacePlanes(np.array(centres), np.array(face_normals), np.array(margins), np.array(tilts),
+                       np.array(reaches))
+    clearance = np.concatenate([faces._clearances(x) for x in (contacts[s:s + _CHUNK]
+                                                                for s in range(0, len(contacts), _CHUNK))])
+    in_front = clearance < 0
+    forgiven = (in_front & (normals @ faces.normals.T < np.cos(forgiven_angle_rad))
+                & (clearance >= -forgiven_depth_m))
+    keep = in_front.sum(axis=0) - np.minimum(forgiven.sum(axis=0), 1) == 0
+    return FacePlanes(faces.centres[keep], faces.normals[keep], faces.margins_array()[keep],
+                      np.asarray(faces.tolerance_rad)[keep], np.asarray(faces.reach_m)[keep])
+
+
+def _splayed(offsets: np.ndarray, normals: np.ndarray, normal: np.ndarray, sigmas: float) -> bool:
+    """Whether a face's measured normals lean away from its centre (a convex surface) or towards it
+    (a concave one) more than their noise explains.
+
+    ``offsets`` (k, 3): the contacts from the face's centre; ``normals`` (k, 3): their measured unit
+    normals; ``normal``: the plane's. On a flat face the component of each measured normal along
+    the in-plane direction away from the centre is noise of zero mean; on a surface of curvature
+    ``1 / R`` it is ``sin(r / R)`` at distance ``r``. The mean over the face is compared with its
+    standard error."""
+    radial = offsets - np.outer(offsets @ normal, normal)
+    length = np.linalg.norm(radial, axis=1)
+    use = length > 1e-9
+    if use.sum() < 3:
+        return False
+    splay = np.einsum("ij,ij->i", normals[use], radial[use] / length[use, None])
+    error = float(np.std(splay, ddof=1)) / np.sqrt(use.sum())
+    return bool(abs(float(np.mean(splay))) > sigmas * max(error, 1e-12))
