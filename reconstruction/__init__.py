@@ -12,7 +12,8 @@ Public API:
 * :func:`add_outside_evidence` (value rows where the mean puts solid well outside the contacts'
   convex hull and tangent planes, or in front of a flat face no contact lies in front of:
   :func:`supporting_face_planes` -> :class:`FacePlanes`; ``GPIS.mesh()`` applies it to a copy by
-  default); :func:`supporting_contact_faces` (-> :class:`ContactFaces`: each contact's face with how
+  default); :func:`whole_face_planes` (those patches grown to whole flat faces, whose planes
+  ``GPIS.mesh()`` cuts the surface at by default); :func:`supporting_contact_faces` (-> :class:`ContactFaces`: each contact's face with how
   well its normal is known; the symmetry search refuses a transform that turns one face onto another);
 * :func:`find_symmetry` (-> :class:`Symmetry`, settings :class:`SymmetrySettings`): mirror planes
   or an axis of revolution the contacts support, whose images of the contacts fill sampling gaps
@@ -47,6 +48,7 @@ _LAZY = {
     "add_outside_evidence": "reconstruction.outside_evidence",
     "FacePlanes": "reconstruction.face_planes",
     "supporting_face_planes": "reconstruction.face_planes",
+    "whole_face_planes": "reconstruction.face_planes",
     "ContactFaces": "reconstruction.face_planes",
     "supporting_contact_faces": "reconstruction.face_planes",
     "Symmetry": "reconstruction.symmetry",

@@ -67,15 +67,21 @@ def vertex_std(gpis, vertices: np.ndarray, keep_near_contact_m: float) -> np.nda
     return out
 
 
-def mean_surface(model, box, resolution: int, max_std_m: float | None = None, refine_steps: int | None = None):
+def mean_surface(model, box, resolution: int, max_std_m: float | None = None, refine_steps: int | None = None,
+                 faces=None):
     """The 0-level set of ``model.mean`` over ``box`` ((3,), (3,) metres) as a ``trimesh.Trimesh``,
     cut to its confident faces (:func:`confident_surface`) when ``max_std_m`` is given. ``model``:
     a fitted GPIS or PartitionedGPIS (``mean``, ``variance``, ``contact_points``).
-    ``refine_steps``: see :func:`reconstruction.meshing.mesh_zero_level` (None: its default)."""
+    ``refine_steps``: see :func:`reconstruction.meshing.mesh_zero_level` (None: its default).
+    ``faces``: a :class:`reconstruction.face_planes.FacePlanes` whose clearance cuts the mean
+    (the 0-level set of ``min(mean, clearance)``), or None."""
     from reconstruction.meshing import DEFAULT_REFINE_STEPS, mesh_zero_level
 
     steps = DEFAULT_REFINE_STEPS if refine_steps is None else refine_steps
-    surface = mesh_zero_level(model.mean, box, resolution, refine_steps=steps)
+    field = model.mean
+    if faces is not None and len(faces):
+        field = lambda x: np.minimum(model.mean(x), faces.clearance(x))  # noqa: E731
+    surface = mesh_zero_level(field, box, resolution, refine_steps=steps)
     return surface if max_std_m is None else confident_surface(model, surface, max_std_m)
 
 

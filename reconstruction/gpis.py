@@ -394,7 +394,7 @@ class GPIS:
 
     def mesh(self, bounds: Sequence[Sequence[float]] | None = None, resolution: int = 64,
              max_std_m: float | None = None, outside_evidence: bool = True, symmetry=False,
-             refine_steps: int | None = None):
+             refine_steps: int | None = None, cut_at_faces: bool = True):
         """The mean surface (0-level set) as a ``trimesh.Trimesh`` with outward normals.
 
         Parameters
@@ -423,10 +423,22 @@ class GPIS:
             Evaluations of the mean per vertex that move it along its grid edge to the 0-level
             (:func:`reconstruction.meshing.mesh_zero_level`); None: its default, 2. 0: the linear
             interpolation of marching cubes, which puts thin walls a third of a voxel too thin.
+        cut_at_faces : bool
+            Mesh ``min(mean, clearance)`` of the whole flat faces this GPIS's contacts support
+            (:func:`reconstruction.face_planes.whole_face_planes`): nothing stands in front of a flat
+            face that no contact stands in front of, so the lobe a smooth mean rounds past a sharp
+            corner between such faces is cut at their planes (BENCHMARKS.md, issue 10). Only with
+            normals; the faces come from the contacts, not from symmetric images. False: uncut.
         """
         from reconstruction.confidence import mean_surface
 
         self._require_fit()
+        cut = None
+        if cut_at_faces and self.use_normals:
+            from reconstruction.face_planes import whole_face_planes
+
+            normals = self.contact_normals
+            cut = whole_face_planes(self.contact_points, normals / np.linalg.norm(normals, axis=1, keepdims=True))
         model = self
         if symmetry is not False and self.use_normals:
             model = self._with_symmetric_images(self.symmetry() if symmetry is True else symmetry)
@@ -436,7 +448,7 @@ class GPIS:
             model = copy.deepcopy(self) if model is self else model
             add_outside_evidence(model)
         return mean_surface(model, self._region if bounds is None else _check_bounds(bounds), resolution, max_std_m,
-                            refine_steps)
+                            refine_steps, cut)
 
     def symmetry(self):
         """The mirror planes or axis of revolution this GPIS's contacts support
