@@ -47,6 +47,8 @@ METHODS = {
     "normals, partitioned": dict(kernel="thin_plate", use_normals=True, partitioned=True),
     # the default GPIS meshed with the contacts' symmetric images (reconstruction.symmetry; issue 10)
     "normals, symmetry": dict(kernel="thin_plate", use_normals=True, symmetry=True),
+    # the same, not cut at the contacts' whole flat faces (GPIS.mesh(cut_at_faces=False): before the cut)
+    "normals, symmetry, uncut": dict(kernel="thin_plate", use_normals=True, symmetry=True, cut_at_faces=False),
 }
 #: The literature's metrics (reconstruction.metrics.ShapeMetrics), means over the seeds.
 STANDARD = ("chamfer_l1_mm", "chamfer_l2_mm", "fscore_1mm", "fscore_2mm", "fscore_5mm", "normal_consistency")
@@ -82,6 +84,8 @@ def reconstruct(method: str, points, normals, bounds, resolution: int, **gp_kwar
     settings = dict(METHODS[method])
     max_std_m = settings.pop("max_std_m", None)
     mesh_options = {"symmetry": True} if settings.pop("symmetry", False) else {}
+    if not settings.pop("cut_at_faces", True):
+        mesh_options["cut_at_faces"] = False
     if settings.pop("partitioned", False):
         from reconstruction.partitioned_gpis import PartitionedGPIS
 

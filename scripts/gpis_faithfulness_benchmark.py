@@ -130,9 +130,11 @@ EVIDENCE_VARIANTS = {"outside-evidence-0.25": dict(facet_fraction=0.25),
                      # without the supporting face planes (the default before them)
                      "outside-evidence-no-faces": dict(face_tolerance_rad=None)}
 METHODS.update({name: _current_default for name in EVIDENCE_VARIANTS})
-#: The default GPIS meshed with the contacts' symmetric images (``GPIS.mesh(symmetry=True)``).
-METHODS["symmetry"] = _current_default
+#: The default GPIS meshed with the contacts' symmetric images (``GPIS.mesh(symmetry=True)``), and so
+#: without the cut at the contacts' whole flat faces (``cut_at_faces=False``: the mesh before it).
+METHODS["symmetry"] = METHODS["symmetry-uncut"] = _current_default
 MESH_OPTIONS["symmetry"] = {"symmetry": True}
+MESH_OPTIONS["symmetry-uncut"] = {"symmetry": True, "cut_at_faces": False}
 MESH_OPTIONS.update({name: {"outside_evidence": False} for name in EVIDENCE_VARIANTS})  # rows already added
 
 
