@@ -25,7 +25,8 @@ Public API:
   :func:`contact_coverage`, :func:`recess_error` (-> :class:`RecessError`: the insides against the
   rest); :func:`surface_topology` (-> :class:`Topology`: parts, genus,
   boundary loops);
-* test data: :func:`sample_contacts` with :class:`ContactNoise`.
+* test data: :func:`sample_contacts` with :class:`ContactNoise`; :func:`add_contact_noise` for
+  contacts chosen elsewhere.
 
 Every name is imported on first use (module ``__getattr__``), so ``import reconstruction`` does
 not import torch.
@@ -70,6 +71,7 @@ _LAZY = {
     "RECESS_DEPTH_M": "reconstruction.metrics",
     "ContactNoise": "reconstruction.synthetic_contacts",
     "sample_contacts": "reconstruction.synthetic_contacts",
+    "add_contact_noise": "reconstruction.synthetic_contacts",
     "sphere_contacts": "reconstruction.synthetic_contacts",
 }
 

@@ -80,6 +80,25 @@ def sample_contacts(mesh, n: int, noise: ContactNoise = ContactNoise(), seed: in
     rng = np.random.default_rng(seed)
     true_points, faces = sample_surface(mesh, n, rng)
     true_normals = mesh.face_normals[faces]
+    points, normals = add_contact_noise(true_points, true_normals, noise, rng)
+    return points, normals, true_points, true_normals
+
+
+def add_contact_noise(true_points: np.ndarray, true_normals: np.ndarray, noise: ContactNoise,
+                      rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """``noise`` applied to exact contacts (``sample_contacts``' model, for contacts chosen elsewhere).
+
+    Parameters
+    ----------
+    true_points, true_normals : (n, 3) float
+        Exact surface points (metres) and outward unit normals, one frame.
+
+    Returns
+    -------
+    points : (n, 3) float, metres
+    normals : (n, 3) float, unit
+    """
+    n = len(true_points)
     tangent_a = np.cross(true_normals, rng.normal(size=(n, 3)))
     tangent_a /= np.linalg.norm(tangent_a, axis=1, keepdims=True)
     tangent_b = np.cross(true_normals, tangent_a)
@@ -88,7 +107,7 @@ def sample_contacts(mesh, n: int, noise: ContactNoise = ContactNoise(), seed: in
               + tangent_a * rng.normal(scale=noise.tangent_std_m, size=(n, 1))
               + tangent_b * rng.normal(scale=noise.tangent_std_m, size=(n, 1)))
     normals = perturb_normals(true_normals, noise.normal_error_mean_deg, rng)
-    return points, normals, true_points, true_normals
+    return points, normals
 
 
 def sphere_contacts(n: int, radius_m: float = 0.05, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

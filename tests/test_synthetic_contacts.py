@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from reconstruction.synthetic_contacts import ContactNoise, perturb_normals, sample_contacts
+from reconstruction.synthetic_contacts import ContactNoise, add_contact_noise, perturb_normals, sample_contacts
 
 
 def test_noise_free_contacts_lie_on_the_surface_with_its_normals():
@@ -60,3 +60,22 @@ def test_a_pooled_draw_is_the_front_of_one_sequence_so_more_contacts_extend_fewe
     assert not np.allclose(sample_contacts(box, 50, seed=7)[0], sample_contacts(box, 300, seed=7)[0][:50])
     with pytest.raises(ValueError, match="pool >= n"):
         sample_contacts(box, 500, seed=7, pool=400)
+
+
+def test_noise_on_chosen_contacts_has_the_model_spread_about_their_own_normals():
+    rng = np.random.default_rng(4)
+    normal = np.array([1.0, 2.0, 2.0]) / 3.0  # a tilted plane: along / across mean its own axes
+    tangent = np.cross(normal, [0.0, 0.0, 1.0])
+    tangent /= np.linalg.norm(tangent)
+    true_points = rng.uniform(-0.05, 0.05, (20000, 1)) * tangent
+    true_normals = np.tile(normal, (20000, 1))
+    exact = add_contact_noise(true_points, true_normals, ContactNoise.off(), rng)
+    np.testing.assert_allclose(exact[0], true_points, atol=1e-15)
+    np.testing.assert_allclose(exact[1], true_normals, atol=1e-12)
+    points, normals = add_contact_noise(true_points, true_normals, ContactNoise(), rng)
+    along = (points - true_points) @ normal
+    across = (points - true_points) - along[:, None] * normal
+    assert np.std(along) == pytest.approx(0.2e-3, rel=0.03)
+    assert np.sqrt(np.mean(np.sum(across**2, axis=1)) / 2) == pytest.approx(1e-3, rel=0.03)
+    angle = np.degrees(np.arccos(np.clip(normals @ normal, -1.0, 1.0)))
+    assert np.mean(angle) == pytest.approx(7.0, rel=0.03)
