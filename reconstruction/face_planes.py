@@ -30,7 +30,11 @@ symmetry search refuses a transform that turns one such face onto another
 knows its normal to a fraction of a degree, where a 25 mm patch allows 5-17 deg, so its plane says
 where the object ends far along the face: past a wedge's corners and a prism's edges, where a
 smooth GPIS rounds a lobe 3-8 mm out of the object between the faces (BENCHMARKS.md, issue 10).
-``GPIS.mesh`` cuts its surface at them (:meth:`FacePlanes.clearance`).
+``GPIS.mesh`` cuts its surface at them (:meth:`FacePlanes.clearance`). The planes of the contacts'
+convex hull facets are grown too: a thin rim's top holds a few contacts far apart around the rim,
+too sparse for any patch, and five of them spread 15 mm RMS or more across both directions are a
+face (a curved surface spreads that wide within the normals' agreement only where it is too far
+from flat to pass), so the field the walls carry up past the rim is cut at it.
 
 Written here rather than taken from a library: a statement about measured contacts and normals,
 not a mesh operation.
@@ -319,6 +323,20 @@ DEFAULT_MAX_WHOLE_FACE_RMS_M = 0.3e-3
 #: plane can be a secant of a circle through them that tilts 5-6 deg off the surface there, with
 #: their departures no larger than a flat face's noise (a sphere of 100 mm radius, 5-7 contacts).
 DEFAULT_MIN_WHOLE_FACE_CONTACTS = 10
+#: ... or this many when they spread wide in both directions (``DEFAULT_WIDE_FACE_SPREAD_M``): a
+#: thin rim's top, a few contacts far apart. Within the faces' 20 deg normal agreement a curved
+#: surface spreads that wide only with a radius over 17 cm, and departs from a plane by more than
+#: the flatness there, so few contacts that wide and that close to one plane are a flat face.
+DEFAULT_MIN_WIDE_FACE_CONTACTS = 5
+#: RMS spread across a face's narrower principal direction that makes it wide, metres.
+DEFAULT_WIDE_FACE_SPREAD_M = 15.0e-3
+#: A whole face's fitted normal lies within this many standard errors of its contacts' mean
+#: measured normal (and within 2 deg at least): a plane through a line of contacts and one far
+#: off it (a lid's top and its knob) fits them closely, but tilted off what they all measured.
+DEFAULT_NORMAL_AGREEMENT_SIGMAS = 3.0
+#: One measured normal's error per tangent axis, radians: the sampled sensor's 7 deg mean angle
+#: (``ContactNoise``) is sigma sqrt(pi / 2) of a Rayleigh distribution.
+DEFAULT_NORMAL_ERROR_STD_RAD = float(np.radians(7.0) / np.sqrt(np.pi / 2))
 #: A whole face's measured normals do not splay out from (or in to) its plane's normal by more than
 #: this many standard errors of their mean splay: on a curved surface they do, and a plane through a
 #: zone of a sphere fits its contacts as closely as a flat face's (see :func:`_splayed`).
@@ -346,13 +364,23 @@ def whole_face_planes(contacts: np.ndarray, normals: np.ndarray, angle_rad: floa
                       max_rms_m: float = DEFAULT_MAX_WHOLE_FACE_RMS_M,
                       reach_m: float = DEFAULT_WHOLE_FACE_REACH_M,
                       min_face_contacts: int = DEFAULT_MIN_WHOLE_FACE_CONTACTS,
-                      splay_sigmas: float = DEFAULT_SPLAY_SIGMAS) -> FacePlanes:
+                      splay_sigmas: float = DEFAULT_SPLAY_SIGMAS,
+                      min_wide_face_contacts: int = DEFAULT_MIN_WIDE_FACE_CONTACTS,
+                      wide_spread_m: float = DEFAULT_WIDE_FACE_SPREAD_M,
+                      hull_seeds: bool = True,
+                      normal_agreement_sigmas: float = DEFAULT_NORMAL_AGREEMENT_SIGMAS,
+                      normal_error_std_rad: float = DEFAULT_NORMAL_ERROR_STD_RAD) -> FacePlanes:
     """The contacts' supporting patches (:func:`supporting_face_planes`) grown to whole flat faces.
 
     Each patch's plane takes every contact within ``flatness_m`` of it whose normal lies within
     ``angle_rad`` of its normal, and is refitted through them (three times, or until fewer than
-    ``min_contacts`` remain); patches that grow to the same contacts give one face. A face is flat
-    when it has at least ``min_face_contacts`` contacts departing from its plane by at most
+    ``min_contacts`` remain); patches that grow to the same contacts give one face. With
+    ``hull_seeds`` the planes of the contacts' convex hull facets are grown too: a face whose
+    contacts lie too far apart for a patch (a thin rim's top) is found from them. A face is flat
+    when it has at least ``min_face_contacts`` contacts (``min_wide_face_contacts`` when their RMS
+    spread across its narrower principal direction is at least ``wide_spread_m``), a fitted normal
+    within ``normal_agreement_sigmas`` standard errors (``normal_error_std_rad / sqrt(k)``, at
+    least 2 deg) of their mean measured normal, departing from its plane by at most
     ``max_rms_m`` RMS and its measured normals do not splay (:func:`_splayed`, ``splay_sigmas``):
     a curved surface's strip within the flatness, or a zone of a sphere through a few contacts, is
     not a face. Its tilt allowance is ``sigmas`` standard errors of its fitted normal,
@@ -384,19 +412,25 @@ def whole_face_planes(contacts: np.ndarray, normals: np.ndarray, angle_rad: floa
     if normals.shape != contacts.shape:
         raise ValueError(f"normals must be one per contact, shape {contacts.shape}, got {normals.shape}")
     for name, value in (("sigmas", sigmas), ("margin_extra_m", margin_extra_m), ("min_margin_m", min_margin_m),
-                        ("forgiven_depth_m", forgiven_depth_m), ("position_noise_m", position_noise_m)):
+                        ("forgiven_depth_m", forgiven_depth_m), ("position_noise_m", position_noise_m),
+                        ("wide_spread_m", wide_spread_m), ("normal_error_std_rad", normal_error_std_rad)):
         if not (np.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    if not normal_agreement_sigmas >= 0:
+        raise ValueError(f"normal_agreement_sigmas must be >= 0 (inf: no check), got {normal_agreement_sigmas!r}")
     for name, value in (("min_tilt_rad", min_tilt_rad), ("forgiven_angle_rad", forgiven_angle_rad)):
         if not (0 <= value < np.pi):
             raise ValueError(f"{name} must be an angle in [0, pi), got {value!r}")
     empty = FacePlanes(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0))
     patches = supporting_face_planes(contacts, normals, angle_rad=angle_rad, flatness_m=flatness_m,
                                      min_contacts=min_contacts)
+    seeds = [(patches.centres, patches.normals)]
+    if hull_seeds:
+        seeds.append(_hull_facet_planes(contacts))
     cosine = np.cos(angle_rad)
     seen: set[bytes] = set()
     centres, face_normals, tilts, margins, reaches = [], [], [], [], []
-    for centre, normal in zip(patches.centres, patches.normals):
+    for centre, normal in ((c, n) for seed_centres, seed_normals in seeds for c, n in zip(seed_centres, seed_normals)):
         members = None
         for _ in range(3):
             on = (np.abs((contacts - centre) @ normal) < flatness_m) & (normals @ normal > cosine)
@@ -410,10 +444,14 @@ def whole_face_planes(contacts: np.ndarray, normals: np.ndarray, angle_rad: floa
             continue
         seen.add(members.tobytes())
         k = int(members.sum())
-        if k < min_face_contacts:
+        across = spread[1] / np.sqrt(k)  # RMS spread across the narrower principal direction
+        if k < min_face_contacts and not (k >= min_wide_face_contacts and across >= wide_spread_m):
+            continue
+        measured = normals[members].sum(axis=0)
+        off_measured = np.arctan2(np.linalg.norm(np.cross(measured, normal)), measured @ normal)
+        if off_measured > max(np.radians(2.0), normal_agreement_sigmas * normal_error_std_rad / np.sqrt(k)):
             continue
         departure = (contacts[members] - centre) @ normal
-        across = spread[1] / np.sqrt(k)  # RMS spread across the narrower principal direction
         rms = float(np.sqrt(np.mean(departure ** 2)))
         if (np.max(np.abs(departure)) > flatness_m or rms > max_rms_m or not across > 0
                 or _splayed(contacts[members] - centre, normals[members], normal, splay_sigmas)):
@@ -436,6 +474,21 @@ def whole_face_planes(contacts: np.ndarray, normals: np.ndarray, angle_rad: floa
     keep = in_front.sum(axis=0) - np.minimum(forgiven.sum(axis=0), 1) == 0
     return FacePlanes(faces.centres[keep], faces.normals[keep], faces.margins_array()[keep],
                       np.asarray(faces.tolerance_rad)[keep], np.asarray(faces.reach_m)[keep])
+
+
+def _hull_facet_planes(contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centres (m, 3) and outward unit normals (m, 3) of the contacts' convex hull facets, one per
+    distinct plane; none for fewer than four contacts or contacts in one plane."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    if len(contacts) < 4:
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    try:
+        hull = ConvexHull(contacts)
+    except QhullError:  # all in one plane or line: no solid hull
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    _, first = np.unique(np.round(hull.equations, 4), axis=0, return_index=True)
+    return contacts[hull.simplices[first]].mean(axis=1), hull.equations[first, :3]
 
 
 def _splayed(offsets: np.ndarray, normals: np.ndarray, normal: np.ndarray, sigmas: float) -> bool:
