@@ -378,7 +378,8 @@ def whole_face_planes(contacts: np.ndarray, normals: np.ndarray, angle_rad: floa
     ``hull_seeds`` the planes of the contacts' convex hull facets are grown too: a face whose
     contacts lie too far apart for a patch (a thin rim's top) is found from them. A face is flat
     when it has at least ``min_face_contacts`` contacts (``min_wide_face_contacts`` when their RMS
-    spread across its narrower principal direction is at least ``wide_spread_m``), a fitted normal
+    spread across its narrower principal direction is at least ``wide_spread_m``, and half that with
+    any one of them left out), a fitted normal
     within ``normal_agreement_sigmas`` standard errors (``normal_error_std_rad / sqrt(k)``, at
     least 2 deg) of their mean measured normal, departing from its plane by at most
     ``max_rms_m`` RMS and its measured normals do not splay (:func:`_splayed`, ``splay_sigmas``):
@@ -445,7 +446,8 @@ def whole_face_planes(contacts: np.ndarray, normals: np.ndarray, angle_rad: floa
         seen.add(members.tobytes())
         k = int(members.sum())
         across = spread[1] / np.sqrt(k)  # RMS spread across the narrower principal direction
-        if k < min_face_contacts and not (k >= min_wide_face_contacts and across >= wide_spread_m):
+        if k < min_face_contacts and not (k >= min_wide_face_contacts
+                                          and _wide_without_any_one(contacts[members], wide_spread_m)):
             continue
         measured = normals[members].sum(axis=0)
         off_measured = np.arctan2(np.linalg.norm(np.cross(measured, normal)), measured @ normal)
@@ -474,6 +476,17 @@ def whole_face_planes(contacts: np.ndarray, normals: np.ndarray, angle_rad: floa
     keep = in_front.sum(axis=0) - np.minimum(forgiven.sum(axis=0), 1) == 0
     return FacePlanes(faces.centres[keep], faces.normals[keep], faces.margins_array()[keep],
                       np.asarray(faces.tolerance_rad)[keep], np.asarray(faces.reach_m)[keep])
+
+
+def _wide_without_any_one(points: np.ndarray, spread_m: float) -> bool:
+    """Whether the (k, 3) points spread ``spread_m`` RMS or more across their narrower principal
+    direction, and half that with any one of them left out: a cluster and one far point are not
+    wide (an L tool's face at 100 contacts: 16 mm, 0.7 mm without its far contact)."""
+    def across(p: np.ndarray) -> float:
+        return float(np.linalg.svd(p - p.mean(axis=0), compute_uv=False)[1] / np.sqrt(len(p)))
+
+    return across(points) >= spread_m and all(across(np.delete(points, i, axis=0)) >= spread_m / 2
+                                              for i in range(len(points)))
 
 
 def _hull_facet_planes(contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -284,5 +284,6 @@ def test_a_plane_through_a_line_of_contacts_and_a_knob_is_not_a_face():
     def tilted(faces) -> bool:
         return bool(np.any((faces.normals[:, 2] > 0.9) & (faces.normals[:, 2] < 0.99)))
 
-    assert tilted(whole_face_planes(points, normals, normal_agreement_sigmas=np.inf))
-    assert not tilted(whole_face_planes(points, normals))
+    assert tilted(whole_face_planes(points, normals, normal_agreement_sigmas=np.inf, wide_spread_m=0.0))
+    assert not tilted(whole_face_planes(points, normals, wide_spread_m=0.0))  # the agreement refuses it
+    assert not tilted(whole_face_planes(points, normals))  # and so does the width without the knob
