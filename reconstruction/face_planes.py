@@ -45,6 +45,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from reconstruction.synthetic_contacts import ContactNoise
+
 #: Contacts within this distance of a contact can be on its face, metres ...
 DEFAULT_FACE_RADIUS_M = 0.025
 #: ... when their normals lie within this angle of its own, radians ...
@@ -334,9 +336,9 @@ DEFAULT_WIDE_FACE_SPREAD_M = 15.0e-3
 #: measured normal (and within 2 deg at least): a plane through a line of contacts and one far
 #: off it (a lid's top and its knob) fits them closely, but tilted off what they all measured.
 DEFAULT_NORMAL_AGREEMENT_SIGMAS = 3.0
-#: One measured normal's error per tangent axis, radians: the sampled sensor's 7 deg mean angle
-#: (``ContactNoise``) is sigma sqrt(pi / 2) of a Rayleigh distribution.
-DEFAULT_NORMAL_ERROR_STD_RAD = float(np.radians(7.0) / np.sqrt(np.pi / 2))
+#: One measured normal's error per tangent axis, radians: the sampled sensor's mean angle
+#: (``ContactNoise``, 7 deg) is sigma sqrt(pi / 2) of a Rayleigh distribution.
+DEFAULT_NORMAL_ERROR_STD_RAD = float(np.radians(ContactNoise().normal_error_mean_deg) / np.sqrt(np.pi / 2))
 #: A whole face's measured normals do not splay out from (or in to) its plane's normal by more than
 #: this many standard errors of their mean splay: on a curved surface they do, and a plane through a
 #: zone of a sphere fits its contacts as closely as a flat face's (see :func:`_splayed`).
