@@ -8,20 +8,9 @@ from __future__ import annotations
 
 import argparse
 import platform
-import statistics
 import sys
-import time
 
 SHAPES = ("generated:tray/1000", "generated:wedge/1000", "generated:blob/1000")
-
-
-def median_s(fn, repeat: int = 3) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -31,6 +20,10 @@ def main(argv: list[str] | None = None) -> int:
     import reconstruction.face_planes as face_planes
     from reconstruction.synthetic_contacts import sample_contacts
     from scripts.gpis_faithfulness_benchmark import METHODS, NESTED_POOL, object_bounds
+    from scripts.gpis_speed_benchmark import timed
+
+    def median_s(fn) -> float:
+        return timed(fn, repeat=3)
 
     print(f"machine: {platform.processor() or platform.machine()}, python {platform.python_version()}")
     print("| shape | contacts | faces, patch seeds (s) | faces, with hull seeds (s) | mesh without / with hull seeds (s) | ratio |")
