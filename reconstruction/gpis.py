@@ -337,6 +337,22 @@ class GPIS:
         std : (n_contacts,) float, metres
             The posterior standard deviation of that prediction (noise-free, as :meth:`variance`).
         """
+        predicted, block, rows = self._left_out_blocks()
+        variance = block[:, 0, 0] - self._noise_var[rows[:, 0]]
+        return predicted[:, 0], np.sqrt(np.maximum(variance, 0.0))
+
+    def leave_one_out_normals(self) -> np.ndarray:
+        """(n_contacts, 3) unit outward normals of the field at each contact as all other observations
+        predict it (``-grad f`` without the contact's four rows, as :meth:`leave_one_out`); a zero
+        row where they predict no gradient. Only with normals."""
+        predicted, _, _ = self._left_out_blocks()
+        gradient = predicted[:, 1:]
+        norm = np.linalg.norm(gradient, axis=1, keepdims=True)
+        return np.divide(-gradient, norm, out=np.zeros_like(gradient), where=norm > 0)
+
+    def _left_out_blocks(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(n, 4) each contact's rows (value, gradient) predicted without them, (n, 4, 4) the
+        blocks of the inverse's inverse, (n, 4) the contacts' row indices."""
         self._require_fit()
         if not self.use_normals:
             raise ValueError("leave_one_out needs a GPIS with normals (use_normals=True)")
@@ -352,9 +368,7 @@ class GPIS:
         rows[np.searchsorted(contacts, self._row_point[mine]), self._row_comp[mine]] = mine
         block = np.linalg.inv(inverse[rows[:, :, None], rows[:, None, :]])  # (n, 4, 4)
         residual = np.einsum("nij,nj->ni", block, (inverse @ self._y)[rows])
-        mean = self._y[rows[:, 0]] - residual[:, 0]
-        variance = block[:, 0, 0] - self._noise_var[rows[:, 0]]
-        return mean, np.sqrt(np.maximum(variance, 0.0))
+        return self._y[rows] - residual, block, rows
 
     # ------------------------------------------------------------------ factor (for trackers)
     @property

@@ -529,6 +529,27 @@ def test_leave_one_out_is_a_refit_without_the_contact(kernel):
     assert np.abs(mean).max() > 1e-5  # left out, a contact is no longer pinned to f = 0
 
 
+@pytest.mark.parametrize("kernel", ["thin_plate", "thin_plate_reference"])  # Cholesky and LU
+def test_leave_one_out_normals_are_a_refit_without_the_contact(kernel):
+    # The field's outward normal (-grad f, unit) of a GPIS fitted without the contact, at the
+    # contact: the same ellipsoid as above, so the answer is not the contact's own normal.
+    points, normals = sphere_contacts(24, seed=3)
+    points, normals = points * [1.0, 0.8, 0.6], normals / [1.0, 0.8, 0.6]
+    normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    kernel = make_kernel(kernel, float(np.linalg.norm(np.subtract(BOUNDS[1], BOUNDS[0]))), 0.1)
+    gp = GPIS(kernel=kernel, bounds=BOUNDS).fit(points, normals)
+    left_out = gp.leave_one_out_normals()
+    assert left_out.shape == (24, 3)
+    np.testing.assert_allclose(np.linalg.norm(left_out, axis=1), 1.0, rtol=1e-9)
+    for i in (0, 11, 23):
+        others = np.arange(24) != i
+        refit = GPIS(kernel=kernel, bounds=BOUNDS).fit(points[others], normals[others])
+        exact = -refit.gradient(points[i:i + 1])[0]
+        exact /= np.linalg.norm(exact)
+        np.testing.assert_allclose(left_out[i], exact, atol=2e-4)  # the refit's gradient is float32
+    assert np.max(np.abs(left_out - normals)) > 1e-4  # not the contacts' own normals
+
+
 def test_leave_one_out_needs_normals():
     points, _ = sphere_contacts(20)
     with pytest.raises(ValueError, match="normals"):
