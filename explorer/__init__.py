@@ -17,7 +17,8 @@ Public API:
 * :func:`reconstruction_errors` (what ``metrics.json`` reports), :func:`load_config`;
 * contact quality (issue 11): :class:`ContactPipeline`, :class:`ContactQuality`, :class:`DoubtRule`,
   :func:`pad_load`, the presses that give no contact (:class:`NoContactMeasured`,
-  :class:`PadSideContact`, :class:`PressReleased`), and against a known truth :func:`contact_truth`.
+  :class:`PadSideContact`, :class:`PressReleased`), the contacts the reconstruction leaves out
+  (:class:`RimStandoff`, in :class:`Reconstruction`), and against a known truth :func:`contact_truth`.
 
 Every name is imported on first use (module ``__getattr__``), so ``import explorer`` imports
 neither torch nor pybullet.
@@ -37,6 +38,8 @@ _LAZY = {
     "load_config": "explorer.config",
     "ExplorationLoop": "explorer.loop",
     "LoopConfig": "explorer.loop",
+    "Reconstruction": "explorer.loop",
+    "RimStandoff": "explorer.rim_standoff",
     "TouchOutcome": "explorer.touch",
     "ApproachPlanner": "explorer.planner",
     "PlannerConfig": "explorer.planner",

@@ -37,6 +37,7 @@ from explorer.motion_time import MotionTimeEstimator
 from explorer.pad_bridging import PadBridging
 from explorer.planner import ApproachPlan, ApproachPlanner
 from explorer.rig import Rig
+from explorer.rim_standoff import RimStandoff
 from explorer.strategies import ExplorationState, TouchStrategy
 from explorer.touch import Touch, TouchOutcome
 from reconstruction.gpis import GPIS
@@ -261,6 +262,14 @@ class LoopConfig:
         ``metrics.json`` says what was found. The loop's own field and the strategy are left as
         measured. Chosen on the tuning split (BENCHMARKS.md, "Symmetry found from the contacts").
         False: runs recorded before 2026-11-29.
+    reconstruction_sets_aside_rim_standoffs : bool
+        The reconstruction is fitted without the contacts whose pad met the surface with its rim
+        while its face stood off it (:class:`explorer.rim_standoff.RimStandoff`: the field fitted
+        without the contact puts the surface 3 mm or more behind it, facing more than 50 deg away,
+        within the pad rim's reach), counted in ``metrics.json`` (``rim_standoff_contacts``,
+        ``rim_standoff_touches``). With normals only; the loop's own field keeps them. Chosen on the
+        tuning split (BENCHMARKS.md, "A pad's rim on the surface"). False: runs recorded before
+        this setting.
     reconstruction_refine_steps : int
         ``GPIS.mesh(refine_steps=...)`` for the run's mesh. 0: the vertices where marching cubes
         interpolates them linearly, a third of a voxel inside a thin wall. The loop's contacts lie
@@ -310,6 +319,7 @@ class LoopConfig:
     bridge_concave_contacts: bool = True
     reconstruction_symmetry: bool = True
     reconstruction_refine_steps: int = 0
+    reconstruction_sets_aside_rim_standoffs: bool = True
 
     def release_threshold_pa(self, detector: PressureDetectorConfig) -> float | None:
         """The contact pipeline's release test pressure (``ContactPipeline.release_threshold_pa``)
@@ -342,12 +352,32 @@ class LoopConfig:
 
     def reconstruction_field(self, gpis: GPIS, records, pad_half_width_m: float) -> tuple[GPIS, int]:
         """The field the run's reconstruction is meshed from and the number of free-space rows it
-        adds: ``gpis`` rebuilt from :meth:`reconstruction_records` (without the misses' rows when
-        ``reconstruction_gates_misses``; its doubtful contacts with ``reconstruction_doubtful_normal_noise``
-        and, on thin walls, tightened with ``reconstruction_tightens_doubtful``; both faces of a thin
-        wall tightened with ``reconstruction_wall_gain``) plus the gated rows of ``swept_free_space``.
-        ``gpis`` itself is unchanged; with none of these settings it is the field."""
+        adds (:meth:`reconstruction`'s ``field`` and ``swept_rows``)."""
+        built = self.reconstruction(gpis, records, pad_half_width_m)
+        return built.field, built.swept_rows
+
+    def reconstruction(self, gpis: GPIS, records, pad_half_width_m: float) -> "Reconstruction":
+        """The run's reconstruction field and what went into it: ``gpis`` rebuilt from
+        :meth:`reconstruction_records` (without the misses' rows when ``reconstruction_gates_misses``;
+        its doubtful contacts with ``reconstruction_doubtful_normal_noise`` and, on thin walls,
+        tightened with ``reconstruction_tightens_doubtful``; both faces of a thin wall tightened with
+        ``reconstruction_wall_gain``) plus the gated rows of ``swept_free_space``, and fitted again
+        without the contacts that stood off on the pad's rim (``reconstruction_sets_aside_rim_standoffs``).
+        ``gpis`` itself is unchanged; with none of these settings it is the field.
+        ``pad_half_width_m``: half the side of the square pad, metres."""
         records, bridged = self.reconstruction_records(records, pad_half_width_m, gpis.use_normals)
+        field, rows = self._reconstruction_field(gpis, records, rebuild=bool(bridged))
+        standing_off = []
+        if self.reconstruction_sets_aside_rim_standoffs and gpis.use_normals and field.n_contacts:
+            standing_off = RimStandoff().records(field, records, pad_half_width_m)
+            if standing_off:
+                kept = [r for r in records if not any(r is s for s in standing_off)]
+                field, rows = self._reconstruction_field(gpis, kept, rebuild=True)
+        return Reconstruction(field, rows, bridged, tuple(r.index for r in standing_off))
+
+    def _reconstruction_field(self, gpis: GPIS, records, rebuild: bool) -> tuple[GPIS, int]:
+        """``gpis`` as the reconstruction takes ``records`` (see :meth:`reconstruction`); ``rebuild``:
+        fitted again from them even where no setting asks for it (they differ from its own)."""
         gated_misses = self.reconstruction_gates_misses and self.swept_free_space
         doubtful_noise = (self.doubtful_normal_noise if self.reconstruction_doubtful_normal_noise is None
                           else self.reconstruction_doubtful_normal_noise)
@@ -355,7 +385,7 @@ class LoopConfig:
         refloor = doubtful and (self.reconstruction_tightens_doubtful or doubtful_noise != self.doubtful_normal_noise)
         walls = (self.reconstruction_wall_gain is not None and gpis.opposing_normal_noise is not None
                  and bool(gpis.thin_wall_contacts().any()))
-        if gated_misses or bridged or refloor or walls:
+        if gated_misses or rebuild or refloor or walls:
             settings = gpis.unfitted_copy()
             settings.opposing_overrides_floor |= self.reconstruction_tightens_doubtful
             if walls:
@@ -393,6 +423,28 @@ class LoopConfig:
     def max_realigns(self) -> int:
         """Realign repeats allowed in the whole budget."""
         return int(np.floor(self.max_realign_fraction * self.touches + 1e-9))
+
+
+@dataclass(frozen=True)
+class Reconstruction:
+    """The run's reconstruction field and what went into it (:meth:`LoopConfig.reconstruction`).
+
+    Attributes
+    ----------
+    field : GPIS
+        The field the run's mesh is taken from, object frame.
+    swept_rows : int
+        Free-space rows of the approach lines it holds.
+    bridged_contacts : int
+        Contacts moved in by the height the flat pad bridged.
+    rim_standoff_touches : tuple of int
+        Indices of the touches whose contacts stood off on the pad's rim, left out of it.
+    """
+
+    field: GPIS
+    swept_rows: int
+    bridged_contacts: int
+    rim_standoff_touches: tuple[int, ...] = ()
 
 
 @dataclass

@@ -65,6 +65,17 @@ def write_mesh(gpis, resolution: int, out_dir: Path, metrics: dict, symmetry: bo
     return mesh
 
 
+def reconstruction_counts(built) -> dict:
+    """``metrics.json``'s counts of what the reconstruction (:class:`explorer.loop.Reconstruction`)
+    took differently from the loop's field: contacts moved in where the pad bridged
+    (``bridged_contacts``), free-space rows of the approach lines (``swept_free_space_rows``), the
+    contacts left out because they stood off on the pad's rim (``rim_standoff_contacts``) and their
+    touches (``rim_standoff_touches``, indices)."""
+    return dict(bridged_contacts=built.bridged_contacts, swept_free_space_rows=built.swept_rows,
+                rim_standoff_contacts=len(built.rim_standoff_touches),
+                rim_standoff_touches=[int(i) for i in built.rim_standoff_touches])
+
+
 def add_errors(metrics: dict, mesh, truth, points: np.ndarray, normals: np.ndarray) -> None:
     """Errors of ``mesh`` and of the contacts (n, 3) against the true surface, into ``metrics``."""
     if mesh is not None and truth is not None:

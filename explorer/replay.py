@@ -53,7 +53,7 @@ from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoConta
                               wants_realign)
 from explorer.evaluation import jsonable
 from explorer.loop import LoopConfig
-from explorer.outputs import add_errors, write_figures, write_mesh
+from explorer.outputs import add_errors, reconstruction_counts, write_figures, write_mesh
 from explorer.planner import PlannerConfig, approach_line
 from explorer.recording import CONTACTS_HEADER, contacts_csv_row
 from explorer.session import SessionReader
@@ -326,6 +326,8 @@ class SessionReplay:
             self.loop_config = replace(self.loop_config, reconstruction_wall_gain=None)
         if "probe_corridor_m" not in recorded_loop:  # recorded before the loop's field took probe corridors
             self.loop_config = replace(self.loop_config, probe_corridor_m=None)
+        if "reconstruction_sets_aside_rim_standoffs" not in recorded_loop:  # every contact was fitted
+            self.loop_config = replace(self.loop_config, reconstruction_sets_aside_rim_standoffs=False)
         if "bridge_concave_contacts" not in recorded_loop:  # meshed with the contacts as measured
             self.loop_config = replace(self.loop_config, bridge_concave_contacts=False)
         doubt = (DoubtRule() if self.teleop else DoubtRule(-np.inf) if self.legacy_contacts
@@ -618,14 +620,18 @@ class SessionReplay:
         return self._reconstruction_field(gpis, touches, settings)[0]
 
     def _reconstruction_field(self, gpis: GPIS, touches: list[TouchOutcome],
-                              settings: ReplaySettings) -> tuple[GPIS, int | None]:
-        """``gpis`` as the run's reconstruction had it (``LoopConfig.reconstruction_field``: bridged
-        contacts, swept free space), and the number of swept rows (None: the run had none)."""
+                              settings: ReplaySettings) -> tuple[GPIS, dict]:
+        """``gpis`` as the run's reconstruction had it (``LoopConfig.reconstruction``: bridged
+        contacts, swept free space, contacts set aside) and its counts for ``metrics.json``
+        (:func:`explorer.outputs.reconstruction_counts`; none for teleoperation)."""
         if self.teleop:
-            return gpis, None
+            return gpis, {}
         config = self._loop_config(settings)
-        field, rows = config.reconstruction_field(gpis, touches, self.pad.half_width_m)
-        return field, rows if config.swept_free_space else None
+        built = config.reconstruction(gpis, touches, self.pad.half_width_m)
+        counts = reconstruction_counts(built)
+        if not config.swept_free_space:
+            del counts["swept_free_space_rows"]
+        return built.field, counts
 
     def _write(self, result: ReplayResult, settings: ReplaySettings, use_normals: bool) -> None:
         out = result.out_dir
@@ -633,12 +639,8 @@ class SessionReplay:
         outputs.write_text(out / "contacts.csv", CONTACTS_HEADER + "".join(
             contacts_csv_row(t, t.contact.t_s, t.contact.force_n) for t in result.contacts))
         metrics = result.metrics
-        field, swept_rows = self._reconstruction_field(result.gpis, result.touches, settings)
-        if swept_rows is not None:
-            metrics["swept_free_space_rows"] = swept_rows
-        if not self.teleop:
-            metrics["bridged_contacts"] = self._loop_config(settings).reconstruction_records(
-                result.touches, self.pad.half_width_m, result.gpis.use_normals)[1]
+        field, counts = self._reconstruction_field(result.gpis, result.touches, settings)
+        metrics.update(counts)
         config = self._loop_config(settings)
         mesh = write_mesh(field, self.mesh_resolution(settings), out, metrics, config.reconstruction_symmetry,
                           config.reconstruction_refine_steps)

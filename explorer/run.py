@@ -37,7 +37,7 @@ from explorer.contact import LOOP_SETTLING
 from explorer.coverage import coverage_ceiling, placed_coverage, reach_breakdown
 from explorer.loop import ExplorationLoop, LoopConfig
 from explorer.observer import ObservedStrategy
-from explorer.outputs import add_errors, write_figures, write_json, write_mesh
+from explorer.outputs import add_errors, reconstruction_counts, write_figures, write_json, write_mesh
 from explorer.planner import ApproachPlanner, PlannerConfig
 from explorer.recording import RunRecorder
 from explorer.resume import check_resumable, load_recorded_run, resume_time_offset, rewrite_contacts_csv
@@ -324,9 +324,9 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
     contacts = np.array([r.position_m for r in records if r.kind == "contact"]).reshape(-1, 3)
     normals = np.array([r.normal for r in records if r.kind == "contact"]).reshape(-1, 3)
     try:
-        metrics["bridged_contacts"] = loop.config.reconstruction_records(loop.records, rig.pad.half_width_m,
-                                                                          gpis.use_normals)[1]
-        gpis, metrics["swept_free_space_rows"] = loop.config.reconstruction_field(gpis, loop.records, rig.pad.half_width_m)
+        built = loop.config.reconstruction(gpis, loop.records, rig.pad.half_width_m)
+        gpis = built.field
+        metrics.update(reconstruction_counts(built))
         mesh = write_mesh(gpis, settings.mesh_resolution, out_dir, metrics, loop.config.reconstruction_symmetry,
                           loop.config.reconstruction_refine_steps)
         if mesh is not None:
