@@ -361,19 +361,21 @@ class LoopConfig:
         :meth:`reconstruction_records` (without the misses' rows when ``reconstruction_gates_misses``;
         its doubtful contacts with ``reconstruction_doubtful_normal_noise`` and, on thin walls,
         tightened with ``reconstruction_tightens_doubtful``; both faces of a thin wall tightened with
-        ``reconstruction_wall_gain``) plus the gated rows of ``swept_free_space``, and fitted again
-        without the contacts that stood off on the pad's rim (``reconstruction_sets_aside_rim_standoffs``).
+        ``reconstruction_wall_gain``) plus the gated rows of ``swept_free_space``, and then bridged and
+        fitted again without the contacts that stood off on the pad's rim
+        (``reconstruction_sets_aside_rim_standoffs``).
         ``gpis`` itself is unchanged; with none of these settings it is the field.
         ``pad_half_width_m``: half the side of the square pad, metres."""
-        records, bridged = self.reconstruction_records(records, pad_half_width_m, gpis.use_normals)
-        field, rows = self._reconstruction_field(gpis, records, rebuild=bool(bridged))
-        standing_off = []
+        taken, bridged = self.reconstruction_records(records, pad_half_width_m, gpis.use_normals)
+        field, rows = self._reconstruction_field(gpis, taken, rebuild=bool(bridged))
+        standing_off = ()
         if self.reconstruction_sets_aside_rim_standoffs and gpis.use_normals and field.n_contacts:
-            standing_off = RimStandoff().records(field, records, pad_half_width_m)
-            if standing_off:
-                kept = [r for r in records if not any(r is s for s in standing_off)]
-                field, rows = self._reconstruction_field(gpis, kept, rebuild=True)
-        return Reconstruction(field, rows, bridged, tuple(r.index for r in standing_off))
+            standing_off = tuple(r.index for r in RimStandoff().records(field, taken, pad_half_width_m))
+        if standing_off:  # bridged again without them: their normals, 55-70 deg off, bent the neighbours'
+            kept = [r for r in records if not (r.kind == "contact" and r.index in standing_off)]
+            taken, bridged = self.reconstruction_records(kept, pad_half_width_m, gpis.use_normals)
+            field, rows = self._reconstruction_field(gpis, taken, rebuild=True)
+        return Reconstruction(field, rows, bridged, standing_off)
 
     def _reconstruction_field(self, gpis: GPIS, records, rebuild: bool) -> tuple[GPIS, int]:
         """``gpis`` as the reconstruction takes ``records`` (see :meth:`reconstruction`); ``rebuild``:
