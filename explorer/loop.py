@@ -363,19 +363,23 @@ class LoopConfig:
         tightened with ``reconstruction_tightens_doubtful``; both faces of a thin wall tightened with
         ``reconstruction_wall_gain``) plus the gated rows of ``swept_free_space``, and then bridged and
         fitted again without the contacts that stood off on the pad's rim
-        (``reconstruction_sets_aside_rim_standoffs``).
+        (``reconstruction_sets_aside_rim_standoffs``), round after round while another shows
+        (at most :data:`RIM_STANDOFF_ROUNDS`).
         ``gpis`` itself is unchanged; with none of these settings it is the field.
         ``pad_half_width_m``: half the side of the square pad, metres."""
         taken, bridged = self.reconstruction_records(records, pad_half_width_m, gpis.use_normals)
         field, rows = self._reconstruction_field(gpis, taken, rebuild=bool(bridged))
-        standing_off = ()
-        if self.reconstruction_sets_aside_rim_standoffs and gpis.use_normals and field.n_contacts:
-            standing_off = tuple(r.index for r in RimStandoff().records(field, taken, pad_half_width_m))
-        if standing_off:  # bridged again without them: their normals, 55-70 deg off, bent the neighbours'
+        standing_off: tuple[int, ...] = ()
+        rounds = RIM_STANDOFF_ROUNDS if self.reconstruction_sets_aside_rim_standoffs and gpis.use_normals else 0
+        for _ in range(rounds):  # until none is left: a standing-off neighbour can hide one
+            found = tuple(r.index for r in RimStandoff().records(field, taken, pad_half_width_m)) if field.n_contacts else ()
+            if not found:
+                break
+            standing_off += found  # bridged again without them: their normals, 55-70 deg off, bent the neighbours'
             kept = [r for r in records if not (r.kind == "contact" and r.index in standing_off)]
             taken, bridged = self.reconstruction_records(kept, pad_half_width_m, gpis.use_normals)
             field, rows = self._reconstruction_field(gpis, taken, rebuild=True)
-        return Reconstruction(field, rows, bridged, standing_off)
+        return Reconstruction(field, rows, bridged, tuple(sorted(standing_off)))
 
     def _reconstruction_field(self, gpis: GPIS, records, rebuild: bool) -> tuple[GPIS, int]:
         """``gpis`` as the reconstruction takes ``records`` (see :meth:`reconstruction`); ``rebuild``:
@@ -425,6 +429,13 @@ class LoopConfig:
     def max_realigns(self) -> int:
         """Realign repeats allowed in the whole budget."""
         return int(np.floor(self.max_realign_fraction * self.touches + 1e-9))
+
+
+#: Rounds of :class:`explorer.rim_standoff.RimStandoff` the reconstruction runs at most, each on the
+#: field without the contacts set aside before: two neighbouring contacts that stood off hold each
+#: other's surface out, and the second shows once the first is gone (tuning torus/0: 3, 1, 1 contacts
+#: in three rounds, BENCHMARKS.md "A pad's rim on the surface").
+RIM_STANDOFF_ROUNDS = 5
 
 
 @dataclass(frozen=True)

@@ -104,3 +104,29 @@ def test_a_run_counts_what_it_set_aside_and_sessions_before_the_setting_replay_w
     old = session_recorded_without(run.out_dir / "session", tmp_path / "old-session",
                                    "reconstruction_sets_aside_rim_standoffs")
     assert not SessionReplay(old).loop_config.reconstruction_sets_aside_rim_standoffs
+
+
+def test_a_contact_hidden_by_a_standing_off_neighbour_is_found_in_the_next_round(monkeypatch):
+    # Two contacts off the sphere 16 mm apart, 9 mm out with the normal 80 deg off and 7 mm out
+    # with it 65 deg off: each holds the other's surface out, and only the first is set aside
+    # until it is gone; the reconstruction's next round finds the second.
+    import explorer.loop
+
+    points, normals = sphere_contacts(60, RADIUS_M, seed=4)
+    first = np.array([0.6, 0.0, 0.8])
+    second = np.array([0.6, 0.6 * np.tan(np.radians(18.0)), 0.8])
+    second /= np.linalg.norm(second)
+    points = np.vstack([points, first * (RADIUS_M + 0.009), second * (RADIUS_M + 0.007)])
+    normals = np.vstack([normals, _turned(first, np.radians(80.0)), _turned(second, np.radians(65.0))])
+    centred = ContactQuality(force_n=1.5, n_readings=20, tilt_rad=float(np.radians(8.0)))
+    records = [TouchOutcome(i, "contact", p + 0.02 * q, -q, position_m=p, normal=q, quality=centred)
+               for i, (p, q) in enumerate(zip(points, normals))]
+    config = LoopConfig(swept_free_space=False, bridge_concave_contacts=False)
+    live = config.evidence(GPIS(bounds=BOUNDS))
+    for record in records:
+        live.add_contact(record.position_m, record.normal)
+
+    built = config.reconstruction(live.gpis, records, HALF_WIDTH_M)
+    assert built.rim_standoff_touches == (60, 61) and built.field.n_contacts == 60
+    monkeypatch.setattr(explorer.loop, "RIM_STANDOFF_ROUNDS", 1)
+    assert config.reconstruction(live.gpis, records, HALF_WIDTH_M).rim_standoff_touches == (60,)
