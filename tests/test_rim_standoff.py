@@ -60,18 +60,27 @@ def test_nothing_is_flagged_on_contacts_of_one_smooth_surface():
     assert not RimStandoff().standing_off(GPIS(bounds=BOUNDS, use_normals=False).fit(points), HALF_WIDTH_M).any()
 
 
-def test_the_reconstruction_leaves_the_standing_off_contact_out_and_counts_it():
-    points, normals = sphere_contacts(60, RADIUS_M, seed=4)
-    direction = np.array([0.6, 0.0, 0.8])
-    points = np.vstack([points, direction * (RADIUS_M + 0.007)])
-    normals = np.vstack([normals, _turned(direction, np.radians(65.0))])
-    centred = ContactQuality(force_n=1.5, n_readings=20, tilt_rad=float(np.radians(8.0)))
-    records = [TouchOutcome(i, "contact", p + 0.02 * q, -q, position_m=p, normal=q, quality=centred)
+CENTRED = ContactQuality(force_n=1.5, n_readings=20, tilt_rad=float(np.radians(8.0)))
+
+
+def _loop_inputs(points, normals):
+    """A loop config, one contact record per point (pressed near the pad's centre) and the loop's
+    field fitted to them, as the reconstruction takes them."""
+    records = [TouchOutcome(i, "contact", p + 0.02 * q, -q, position_m=p, normal=q, quality=CENTRED)
                for i, (p, q) in enumerate(zip(points, normals))]
     config = LoopConfig(swept_free_space=False, bridge_concave_contacts=False)
     live = config.evidence(GPIS(bounds=BOUNDS))
     for record in records:
         live.add_contact(record.position_m, record.normal)
+    return config, records, live
+
+
+def test_the_reconstruction_leaves_the_standing_off_contact_out_and_counts_it():
+    points, normals = sphere_contacts(60, RADIUS_M, seed=4)
+    direction = np.array([0.6, 0.0, 0.8])
+    points = np.vstack([points, direction * (RADIUS_M + 0.007)])
+    normals = np.vstack([normals, _turned(direction, np.radians(65.0))])
+    config, records, live = _loop_inputs(points, normals)
 
     built = config.reconstruction(live.gpis, records, HALF_WIDTH_M)
     assert built.rim_standoff_touches == (60,)
@@ -85,7 +94,7 @@ def test_the_reconstruction_leaves_the_standing_off_contact_out_and_counts_it():
 
     # The press must say the pad met the surface near its centre: a doubtful contact (placed at the
     # rim already), a spring turned far, or no quality at all keep the contact.
-    for quality in (replace(centred, doubtful=True), replace(centred, tilt_rad=float(np.radians(30.0))), None):
+    for quality in (replace(CENTRED, doubtful=True), replace(CENTRED, tilt_rad=float(np.radians(30.0))), None):
         kept = records[:60] + [replace(records[60], quality=quality)]
         assert config.reconstruction(live.gpis, kept, HALF_WIDTH_M).rim_standoff_touches == ()
 
@@ -118,13 +127,7 @@ def test_a_contact_hidden_by_a_standing_off_neighbour_is_found_in_the_next_round
     second /= np.linalg.norm(second)
     points = np.vstack([points, first * (RADIUS_M + 0.009), second * (RADIUS_M + 0.007)])
     normals = np.vstack([normals, _turned(first, np.radians(80.0)), _turned(second, np.radians(65.0))])
-    centred = ContactQuality(force_n=1.5, n_readings=20, tilt_rad=float(np.radians(8.0)))
-    records = [TouchOutcome(i, "contact", p + 0.02 * q, -q, position_m=p, normal=q, quality=centred)
-               for i, (p, q) in enumerate(zip(points, normals))]
-    config = LoopConfig(swept_free_space=False, bridge_concave_contacts=False)
-    live = config.evidence(GPIS(bounds=BOUNDS))
-    for record in records:
-        live.add_contact(record.position_m, record.normal)
+    config, records, live = _loop_inputs(points, normals)
 
     built = config.reconstruction(live.gpis, records, HALF_WIDTH_M)
     assert built.rim_standoff_touches == (60, 61) and built.field.n_contacts == 60
