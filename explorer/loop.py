@@ -372,7 +372,7 @@ class LoopConfig:
         standing_off: tuple[int, ...] = ()
         rounds = RIM_STANDOFF_ROUNDS if self.reconstruction_sets_aside_rim_standoffs and gpis.use_normals else 0
         for _ in range(rounds):  # until none is left: a standing-off neighbour can hide one
-            found = tuple(r.index for r in RimStandoff().records(field, taken, pad_half_width_m)) if field.n_contacts else ()
+            found = tuple(r.index for r in RimStandoff().records(field, taken, pad_half_width_m))
             if not found:
                 break
             standing_off += found  # bridged again without them: their normals, 55-70 deg off, bent the neighbours'

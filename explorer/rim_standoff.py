@@ -12,7 +12,7 @@ such a contact from a good one; it says only that the pad met the surface near i
 contact is not doubtful and the spring turned little).
 
 The other contacts tell the rest: the reconstruction field fitted without the contact
-(:meth:`reconstruction.gpis.GPIS.leave_one_out`, :meth:`~reconstruction.gpis.GPIS.leave_one_out_normals`)
+(:meth:`reconstruction.gpis.GPIS.leave_one_out_with_normals`)
 puts the surface well behind it, facing far from its normal, and no farther behind it than the
 pad's rim reaches at that angle (half its width times the sine, plus a margin). A contact is
 standing off when the press and all three of these agree; the reconstruction is then fitted
@@ -82,8 +82,9 @@ class RimStandoff:
         """
         if not gpis.use_normals or gpis.n_contacts < 2:
             return np.zeros(gpis.n_contacts, bool)
-        depth = -gpis.leave_one_out()[0]
-        cosine = np.einsum("ij,ij->i", gpis.leave_one_out_normals(), gpis.contact_normals)
+        mean, _, left_out_normals = gpis.leave_one_out_with_normals()
+        depth = -mean
+        cosine = np.einsum("ij,ij->i", left_out_normals, gpis.contact_normals)
         angle = np.arccos(np.clip(cosine, -1.0, 1.0))
         reach = pad_half_width_m * np.sin(np.minimum(angle, np.pi / 2)) + self.reach_margin_m
         return (depth > self.min_depth_m) & (angle > self.min_angle_rad) & (depth <= reach)

@@ -337,18 +337,18 @@ class GPIS:
         std : (n_contacts,) float, metres
             The posterior standard deviation of that prediction (noise-free, as :meth:`variance`).
         """
+        return self.leave_one_out_with_normals()[:2]
+
+    def leave_one_out_with_normals(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`leave_one_out`'s mean and std and, from the same inverse, the field's unit outward
+        normal at each contact as all other observations predict it: (n_contacts, 3), ``-grad f``
+        without the contact's four rows, a zero row where they predict no gradient. Only with normals."""
         predicted, block, rows = self._left_out_blocks()
         variance = block[:, 0, 0] - self._noise_var[rows[:, 0]]
-        return predicted[:, 0], np.sqrt(np.maximum(variance, 0.0))
-
-    def leave_one_out_normals(self) -> np.ndarray:
-        """(n_contacts, 3) unit outward normals of the field at each contact as all other observations
-        predict it (``-grad f`` without the contact's four rows, as :meth:`leave_one_out`); a zero
-        row where they predict no gradient. Only with normals."""
-        predicted, _, _ = self._left_out_blocks()
         gradient = predicted[:, 1:]
         norm = np.linalg.norm(gradient, axis=1, keepdims=True)
-        return np.divide(-gradient, norm, out=np.zeros_like(gradient), where=norm > 0)
+        normals = np.divide(-gradient, norm, out=np.zeros_like(gradient), where=norm > 0)
+        return predicted[:, 0], np.sqrt(np.maximum(variance, 0.0)), normals
 
     def _left_out_blocks(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(n, 4) each contact's rows (value, gradient) predicted without them, (n, 4, 4) the

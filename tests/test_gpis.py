@@ -538,7 +538,8 @@ def test_leave_one_out_normals_are_a_refit_without_the_contact(kernel):
     normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
     kernel = make_kernel(kernel, float(np.linalg.norm(np.subtract(BOUNDS[1], BOUNDS[0]))), 0.1)
     gp = GPIS(kernel=kernel, bounds=BOUNDS).fit(points, normals)
-    left_out = gp.leave_one_out_normals()
+    mean, std, left_out = gp.leave_one_out_with_normals()
+    np.testing.assert_array_equal(np.column_stack([mean, std]), np.column_stack(gp.leave_one_out()))
     assert left_out.shape == (24, 3)
     np.testing.assert_allclose(np.linalg.norm(left_out, axis=1), 1.0, rtol=1e-9)
     for i in (0, 11, 23):
