@@ -14,13 +14,17 @@ STANDARD_METRICS = ("chamfer_l1_mm", "chamfer_l2_mm", "fscore_1mm", "fscore_2mm"
                     "normal_consistency")
 
 
-def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray) -> dict:
+def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray,
+                          kept: np.ndarray | None = None) -> dict:
     """Surface errors of ``mesh`` against ``truth`` and the contacts' own errors.
 
     Parameters
     ----------
     mesh, truth : trimesh.Trimesh, object frame, metres
     points, normals : (n, 3) float, contacts in the object frame (outward normals)
+    kept : (n,) bool, optional
+        The contacts the reconstruction was fitted to (False: set aside, e.g. a pad-rim standoff);
+        None: all of them.
 
     Returns
     -------
@@ -34,7 +38,8 @@ def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray) 
         of an edge the contact sits on counts as right), ``contact_normal_error_closest_face_mean_deg``
         (the angle to the one closest face's normal, as before 2026-11-26: on an edge it depends on
         which face the search returns) and ``contact_position_error_rms_mm`` (distance of the
-        contacts to the truth). All three take the closest point among the faces the pad could
+        contacts to the truth; ``contact_position_error_rms_kept_mm`` the same over the ``kept``
+        contacts, None when none is kept). All four take the closest point among the faces the pad could
         have pressed on, those within 90 deg of the measured normal
         (:meth:`objects.proximity.MeshProximity.query_facing`; since 2026-11-28): a contact
         measured more than half way through a thin wall is not scored against the far face; the
@@ -66,6 +71,11 @@ def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray) 
                           proximity.normal_cone_error(points, normals, facing=True)).mean()),
                       contact_normal_error_closest_face_mean_deg=float(np.degrees(np.arccos(cosines)).mean()),
                       contact_position_error_rms_mm=float(1e3 * np.sqrt(np.mean(distance ** 2))))
+        kept = np.ones(len(points), bool) if kept is None else np.asarray(kept, bool)
+        if kept.shape != (len(points),):
+            raise ValueError(f"kept must be one flag per contact, shape ({len(points)},), got {kept.shape}")
+        errors["contact_position_error_rms_kept_mm"] = (
+            float(1e3 * np.sqrt(np.mean(distance[kept] ** 2))) if kept.any() else None)
     return errors
 
 

@@ -76,10 +76,19 @@ def reconstruction_counts(built) -> dict:
                 rim_standoff_touches=[int(i) for i in built.rim_standoff_touches])
 
 
-def add_errors(metrics: dict, mesh, truth, points: np.ndarray, normals: np.ndarray) -> None:
-    """Errors of ``mesh`` and of the contacts (n, 3) against the true surface, into ``metrics``."""
+def add_errors(metrics: dict, mesh, truth, points: np.ndarray, normals: np.ndarray,
+               kept: np.ndarray | None = None) -> None:
+    """Errors of ``mesh`` and of the contacts (n, 3) against the true surface, into ``metrics``;
+    ``kept`` (n,) bool: the contacts the reconstruction used (see :func:`kept_contacts`)."""
     if mesh is not None and truth is not None:
-        metrics.update(reconstruction_errors(mesh, truth, points, normals))
+        metrics.update(reconstruction_errors(mesh, truth, points, normals, kept))
+
+
+def kept_contacts(contacts, set_aside_touches) -> np.ndarray:
+    """(n,) bool over ``contacts`` (touch records with ``index``, in order): not among the touch
+    indices the reconstruction set aside (``rim_standoff_touches``)."""
+    aside = {int(i) for i in set_aside_touches}
+    return np.array([c.index not in aside for c in contacts], bool)
 
 
 def write_figures(out_dir: Path, gpis, mesh, truth, points: np.ndarray, use_normals: bool,

@@ -53,7 +53,7 @@ from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoConta
                               wants_realign)
 from explorer.evaluation import jsonable
 from explorer.loop import LoopConfig
-from explorer.outputs import add_errors, reconstruction_counts, write_figures, write_mesh
+from explorer.outputs import add_errors, kept_contacts, reconstruction_counts, write_figures, write_mesh
 from explorer.planner import PlannerConfig, approach_line
 from explorer.recording import CONTACTS_HEADER, contacts_csv_row
 from explorer.session import SessionReader
@@ -644,7 +644,8 @@ class SessionReplay:
         config = self._loop_config(settings)
         mesh = write_mesh(field, self.mesh_resolution(settings), out, metrics, config.reconstruction_symmetry,
                           config.reconstruction_refine_steps)
-        add_errors(metrics, mesh, self.truth, result.points_m, result.normals)
+        add_errors(metrics, mesh, self.truth, result.points_m, result.normals,
+                   kept_contacts(result.contacts, counts.get("rim_standoff_touches", ())))
         outputs.write_json(out / "metrics.json", jsonable(metrics))
         if mesh is not None and self.truth is not None and settings.figures:
             write_figures(out, field, mesh, self.truth, result.points_m, use_normals)

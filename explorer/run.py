@@ -37,7 +37,7 @@ from explorer.contact import LOOP_SETTLING
 from explorer.coverage import coverage_ceiling, placed_coverage, reach_breakdown
 from explorer.loop import ExplorationLoop, LoopConfig
 from explorer.observer import ObservedStrategy
-from explorer.outputs import add_errors, reconstruction_counts, write_figures, write_json, write_mesh
+from explorer.outputs import add_errors, kept_contacts, reconstruction_counts, write_figures, write_json, write_mesh
 from explorer.planner import ApproachPlanner, PlannerConfig
 from explorer.recording import RunRecorder
 from explorer.resume import check_resumable, load_recorded_run, resume_time_offset, rewrite_contacts_csv
@@ -331,7 +331,8 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
                           loop.config.reconstruction_refine_steps)
         if mesh is not None:
             recorder.reconstruction(mesh, gpis.n_contacts, recorder.latest_time_s)
-        add_errors(metrics, mesh, truth, contacts, normals)
+        add_errors(metrics, mesh, truth, contacts, normals,
+                   kept_contacts([r for r in records if r.kind == "contact"], built.rim_standoff_touches))
         if truth is not None and settings.reach_samples > 0:
             steps = settings.reach_samples
             report = None if status is None else (lambda done: status("reachable fraction", done, steps))

@@ -109,6 +109,8 @@ def test_bad_settings_are_refused_by_name(field, value):
 def test_a_run_counts_what_it_set_aside_and_sessions_before_the_setting_replay_without_it(recorded_sphere_run, tmp_path):
     run = recorded_sphere_run
     assert run.metrics["rim_standoff_contacts"] == len(run.metrics["rim_standoff_touches"])
+    if not run.metrics["rim_standoff_touches"]:
+        assert run.metrics["contact_position_error_rms_kept_mm"] == run.metrics["contact_position_error_rms_mm"]
     assert SessionReplay(run.out_dir / "session").loop_config.reconstruction_sets_aside_rim_standoffs
     old = session_recorded_without(run.out_dir / "session", tmp_path / "old-session",
                                    "reconstruction_sets_aside_rim_standoffs")
@@ -133,3 +135,29 @@ def test_a_contact_hidden_by_a_standing_off_neighbour_is_found_in_the_next_round
     assert built.rim_standoff_touches == (60, 61) and built.field.n_contacts == 60
     monkeypatch.setattr(explorer.loop, "RIM_STANDOFF_ROUNDS", 1)
     assert config.reconstruction(live.gpis, records, HALF_WIDTH_M).rim_standoff_touches == (60,)
+
+
+def test_the_contacts_error_over_those_kept_leaves_out_the_set_aside_ones_and_only_them():
+    """On a box's top face, contacts 1, 2 and 3 mm above it and one 9 mm above: the RMS over all
+    is sqrt((1 + 4 + 9 + 81) / 4) mm, over the three kept sqrt(14 / 3) mm (closed forms)."""
+    import trimesh
+
+    from explorer.evaluation import reconstruction_errors
+    from explorer.outputs import kept_contacts
+
+    box = trimesh.creation.box((0.1, 0.1, 0.02))
+    heights = np.array([0.001, 0.002, 0.003, 0.009])
+    points = np.column_stack([np.linspace(-0.03, 0.03, 4), np.zeros(4), 0.01 + heights])
+    normals = np.tile([0.0, 0.0, 1.0], (4, 1))
+    records = [TouchOutcome(i, "contact", p, -n) for i, (p, n) in zip((3, 5, 8, 13), zip(points, normals))]
+    kept = kept_contacts(records, (13,))
+    assert kept.tolist() == [True, True, True, False]
+    errors = reconstruction_errors(box.copy(), box, points, normals, kept)
+    assert errors["contact_position_error_rms_mm"] == pytest.approx(np.sqrt(95 / 4), abs=1e-9)
+    assert errors["contact_position_error_rms_kept_mm"] == pytest.approx(np.sqrt(14 / 3), abs=1e-9)
+    every = reconstruction_errors(box.copy(), box, points, normals)
+    assert every["contact_position_error_rms_kept_mm"] == every["contact_position_error_rms_mm"]
+    assert reconstruction_errors(box.copy(), box, points, normals, np.zeros(4, bool))[
+        "contact_position_error_rms_kept_mm"] is None
+    with pytest.raises(ValueError, match="kept must be one flag per contact"):
+        reconstruction_errors(box.copy(), box, points, normals, kept[:3])
