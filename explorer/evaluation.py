@@ -62,6 +62,7 @@ def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray,
                   extra_components=shape.components - true_shape.components,
                   recess=asdict(recess_error(mesh, truth, points if len(points) else None, COVERAGE_RADIUS_M)))
     if len(points):
+        rms_mm = lambda d: float(1e3 * np.sqrt(np.mean(d ** 2)))  # noqa: E731
         proximity = MeshProximity(truth)
         _, distance, face = proximity.query_facing(points, normals)
         cosines = np.clip(np.sum(normals * truth.face_normals[face], axis=1), -1.0, 1.0)
@@ -70,12 +71,11 @@ def reconstruction_errors(mesh, truth, points: np.ndarray, normals: np.ndarray,
                       contact_normal_error_mean_deg=float(np.degrees(
                           proximity.normal_cone_error(points, normals, facing=True)).mean()),
                       contact_normal_error_closest_face_mean_deg=float(np.degrees(np.arccos(cosines)).mean()),
-                      contact_position_error_rms_mm=float(1e3 * np.sqrt(np.mean(distance ** 2))))
+                      contact_position_error_rms_mm=rms_mm(distance))
         kept = np.ones(len(points), bool) if kept is None else np.asarray(kept, bool)
         if kept.shape != (len(points),):
             raise ValueError(f"kept must be one flag per contact, shape ({len(points)},), got {kept.shape}")
-        errors["contact_position_error_rms_kept_mm"] = (
-            float(1e3 * np.sqrt(np.mean(distance[kept] ** 2))) if kept.any() else None)
+        errors["contact_position_error_rms_kept_mm"] = rms_mm(distance[kept]) if kept.any() else None
     return errors
 
 

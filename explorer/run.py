@@ -321,8 +321,9 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
         metrics["error"] = dict(device=_device_of(error), type=type(error).__name__, message=str(error))
     metrics["error_curve"] = _carry_over(metrics, earlier or {}, curve)
     mesh = None
-    contacts = np.array([r.position_m for r in records if r.kind == "contact"]).reshape(-1, 3)
-    normals = np.array([r.normal for r in records if r.kind == "contact"]).reshape(-1, 3)
+    contact_records = [r for r in records if r.kind == "contact"]
+    contacts = np.array([r.position_m for r in contact_records]).reshape(-1, 3)
+    normals = np.array([r.normal for r in contact_records]).reshape(-1, 3)
     try:
         built = loop.config.reconstruction(gpis, loop.records, rig.pad.half_width_m)
         gpis = built.field
@@ -332,7 +333,7 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
         if mesh is not None:
             recorder.reconstruction(mesh, gpis.n_contacts, recorder.latest_time_s)
         add_errors(metrics, mesh, truth, contacts, normals,
-                   kept_contacts([r for r in records if r.kind == "contact"], built.rim_standoff_touches))
+                   kept_contacts(contact_records, built.rim_standoff_touches))
         if truth is not None and settings.reach_samples > 0:
             steps = settings.reach_samples
             report = None if status is None else (lambda done: status("reachable fraction", done, steps))
