@@ -44,7 +44,9 @@ def write_mesh(gpis, resolution: int, out_dir: Path, metrics: dict, symmetry: bo
     A field with no zero level set (or no contacts) gives None, with ``reconstruction_error`` in
     ``metrics`` saying why when meshing failed. ``symmetry``: mesh with the contacts' symmetric
     images (``GPIS.mesh(symmetry=...)``); ``metrics["reconstruction_symmetry"]`` says what was
-    found (``none``, ``mirror`` or ``revolution``, with the number of transforms).
+    found (``none``, ``mirror`` or ``revolution``, with the number of transforms) and how many
+    contacts' images were left out because the others put those contacts in free space
+    (``disputed_contacts``).
     ``refine_steps``: as ``GPIS.mesh`` takes it (the loop passes its ``reconstruction_refine_steps``).
     """
     if not gpis.n_contacts:
@@ -58,6 +60,9 @@ def write_mesh(gpis, resolution: int, out_dir: Path, metrics: dict, symmetry: bo
             metrics["reconstruction_symmetry"] = dict(kind=found.kind, transforms=len(found.transforms))
             options["symmetry"] = found
         mesh = gpis.mesh(resolution=resolution, refine_steps=refine_steps, **options)
+        if "symmetry" in options:
+            metrics["reconstruction_symmetry"]["disputed_contacts"] = len(
+                mesh.metadata.get("symmetry_disputed_contacts", ()))
         export_mesh(mesh, Path(out_dir) / "reconstruction.ply")
     except ValueError as exc:
         metrics["reconstruction_error"] = str(exc)

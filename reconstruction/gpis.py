@@ -350,18 +350,69 @@ class GPIS:
         normals = np.divide(-gradient, norm, out=np.zeros_like(gradient), where=norm > 0)
         return predicted[:, 0], np.sqrt(np.maximum(variance, 0.0)), normals
 
+    def leave_groups_out(self, groups: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``f`` at each group's first contact as the observations outside the group predict it.
+
+        A group's contacts' rows (value and gradient) are left out together, in closed form from
+        the inverse of the observation covariance as in :meth:`leave_one_out`: a contact with its
+        symmetric images, say, which would otherwise vouch for it. Only with normals.
+
+        Parameters
+        ----------
+        groups : (n_contacts,) int
+            The group of each contact, in :attr:`contact_points` order, 0 .. g - 1; -1: in no
+            group (never left out). Every group from 0 to g - 1 must have a contact.
+
+        Returns
+        -------
+        mean : (g,) float, metres
+            ``f`` predicted at each group's first contact without the group (negative: the other
+            observations put that contact in free space).
+        std : (g,) float, metres
+            The posterior standard deviation of that prediction (noise-free, as :meth:`variance`).
+        """
+        self._require_fit()
+        if not self.use_normals:
+            raise ValueError("leave_groups_out needs a GPIS with normals (use_normals=True)")
+        groups = np.asarray(groups)
+        if groups.shape != (self.n_contacts,) or not np.issubdtype(groups.dtype, np.integer):
+            raise ValueError(f"groups must be ({self.n_contacts},) integers, one per contact; got "
+                             f"{groups.dtype} of shape {groups.shape}")
+        n_groups = int(groups.max(initial=-1)) + 1
+        if groups.min(initial=0) < -1 or len(np.unique(groups[groups >= 0])) != n_groups:
+            raise ValueError("groups must number the groups 0 .. g - 1, each with a contact, and -1 for none")
+        inverse = self._observation_inverse()
+        weights = inverse @ self._y
+        contacts = np.unique(self._row_point[self._row_comp > 0])
+        point_group = np.full(len(self._obs_points), -1)
+        point_group[contacts] = groups
+        row_group = point_group[self._row_point]
+        in_group = np.flatnonzero(groups >= 0)
+        first = contacts[in_group[np.unique(groups[in_group], return_index=True)[1]]]
+        mean, std = np.zeros(n_groups), np.zeros(n_groups)
+        for g in range(n_groups):
+            rows = np.flatnonzero(row_group == g)
+            anchor = np.flatnonzero((self._row_point[rows] == first[g]) & (self._row_comp[rows] == 0))[0]
+            block = np.linalg.inv(inverse[np.ix_(rows, rows)])
+            mean[g] = self._y[rows[anchor]] - block[anchor] @ weights[rows]
+            std[g] = np.sqrt(max(block[anchor, anchor] - self._noise_var[rows[anchor]], 0.0))
+        return mean, std
+
+    def _observation_inverse(self) -> np.ndarray:
+        """(rows, rows) float64, the inverse of the observation covariance (noise included)."""
+        eye = np.eye(self.n_rows)
+        if self._factor is not None:
+            whitened = self._factor.solve_lower(eye)
+            return whitened.T @ whitened
+        return scipy.linalg.lu_solve(self._lu, eye, check_finite=False)
+
     def _left_out_blocks(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(n, 4) each contact's rows (value, gradient) predicted without them, (n, 4, 4) the
         blocks of the inverse's inverse, (n, 4) the contacts' row indices."""
         self._require_fit()
         if not self.use_normals:
             raise ValueError("leave_one_out needs a GPIS with normals (use_normals=True)")
-        eye = np.eye(self.n_rows)
-        if self._factor is not None:
-            whitened = self._factor.solve_lower(eye)
-            inverse = whitened.T @ whitened
-        else:
-            inverse = scipy.linalg.lu_solve(self._lu, eye, check_finite=False)
+        inverse = self._observation_inverse()
         contacts = np.unique(self._row_point[self._row_comp > 0])
         rows = np.full((len(contacts), 4), -1)
         mine = np.flatnonzero(np.isin(self._row_point, contacts))
@@ -432,7 +483,9 @@ class GPIS:
             True: mesh a copy that also observes the contacts' images under the mirror planes or
             the axis of revolution the contacts support (:meth:`symmetry`; none found: no
             change); a :class:`reconstruction.symmetry.Symmetry`: under that one. Only with
-            normals; this GPIS is not changed. False (default): no images.
+            normals; this GPIS is not changed. False (default): no images. The images of a
+            contact the other contacts and their images put in free space are left out; the
+            mesh's ``metadata["symmetry_disputed_contacts"]`` lists those contacts (indices).
         refine_steps : int, optional
             Evaluations of the mean per vertex that move it along its grid edge to the 0-level
             (:func:`reconstruction.meshing.mesh_zero_level`); None: its default, 2. 0: the linear
@@ -453,16 +506,19 @@ class GPIS:
 
             normals = self.contact_normals
             cut = whole_face_planes(self.contact_points, normals / np.linalg.norm(normals, axis=1, keepdims=True))
-        model = self
+        model, disputed = self, None
         if symmetry is not False and self.use_normals:
-            model = self._with_symmetric_images(self.symmetry() if symmetry is True else symmetry)
+            model, disputed = self._with_symmetric_images(self.symmetry() if symmetry is True else symmetry)
         if outside_evidence and self.use_normals:
             from reconstruction.outside_evidence import add_outside_evidence
 
             model = copy.deepcopy(self) if model is self else model
             add_outside_evidence(model)
-        return mean_surface(model, self._region if bounds is None else _check_bounds(bounds), resolution, max_std_m,
-                            refine_steps, cut)
+        surface = mean_surface(model, self._region if bounds is None else _check_bounds(bounds), resolution,
+                               max_std_m, refine_steps, cut)
+        if disputed is not None:
+            surface.metadata["symmetry_disputed_contacts"] = np.flatnonzero(disputed)
+        return surface
 
     def symmetry(self):
         """The mirror planes or axis of revolution this GPIS's contacts support
@@ -473,24 +529,41 @@ class GPIS:
             return Symmetry()
         return find_symmetry(self.contact_points, self.contact_normals, self)
 
-    def _with_symmetric_images(self, found) -> "GPIS":
-        """A copy observing the contacts' images under ``found`` as contacts, or this GPIS if none.
+    def _with_symmetric_images(self, found) -> tuple["GPIS", np.ndarray]:
+        """A copy observing the contacts' images under ``found`` as contacts, or this GPIS if none,
+        and (n_contacts,) bool: the contacts whose images were left out as disputed.
         Images outside the GPIS's region are not used (they are inferred, not measured), nor those
         both the contacts' hull and this GPIS's mean put off the surface
-        (:func:`reconstruction.symmetry.contradicted_images`: a feature a near symmetry copies)."""
-        from reconstruction.symmetry import contradicted_images
+        (:func:`reconstruction.symmetry.contradicted_images`: a feature a near symmetry copies),
+        nor the images of a contact the other contacts and their images put in free space
+        (:func:`reconstruction.symmetry.disputed_contacts`, re-judged without those left out)."""
+        from reconstruction.symmetry import SymmetrySettings, contradicted_images, disputed_contacts
 
+        settings = SymmetrySettings()
         points, normals = self.contact_points, self.contact_normals
-        images, image_normals = found.images(points, normals)
+        images, image_normals, sources = found.images(points, normals, settings, return_sources=True)
         lo, hi = self.region
-        inside = np.all((images > lo) & (images < hi), axis=1)
-        if inside.any():
-            inside[inside] = ~contradicted_images(self, images[inside])
-        if not inside.any():
-            return self
+        used = np.all((images > lo) & (images < hi), axis=1)
+        if used.any():
+            used[used] = ~contradicted_images(self, images[used], settings)
+        disputed = np.zeros(len(points), bool)
+        model = self._observing(images[used], image_normals[used]) if used.any() else self
+        for _ in range(settings.dispute_rounds):
+            if model is self:
+                break
+            disputed |= disputed_contacts(model, sources[used], settings)
+            dropped = used & disputed[sources]
+            if not dropped.any():
+                break
+            used &= ~dropped
+            model = self._observing(images[used], image_normals[used]) if used.any() else self
+        return model, disputed
+
+    def _observing(self, images: np.ndarray, image_normals: np.ndarray) -> "GPIS":
+        """A copy that also observes ``images`` as contacts; this GPIS if that is not positive definite."""
         model = copy.deepcopy(self)
         try:
-            model.add(images[inside], image_normals[inside])
+            model.add(images, image_normals)
         except NotPositiveDefiniteError as exc:
             warnings.warn(f"the symmetric images were left out of the mesh: {exc}")
             return self

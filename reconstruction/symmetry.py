@@ -65,7 +65,13 @@ and deep in the GPIS's free space. An accepted symmetry may hold for all of the 
 feature (a fruit's stem: 1.5 % of each transform's images, under the 2 % ``max_free``), and the
 feature's images would grow it where the object has none; either test alone also drops images of
 a true symmetry (a bowl's bottom, where the mean between sparse contacts is itself wrong, lies
-inside the hull).
+inside the hull). Nor do they copy a contact that is itself off the surface (a pad's rim on an
+edge, a few millimetres out): :func:`disputed_contacts` leaves each contact out with all its
+images and asks whether the other contacts and their images put it in free space; those that do
+lose their images, and the others are asked again without them. A true symmetry's images agree
+on the surface, so one wrong contact stands out against them where, alone, it had no neighbour to
+contradict it (a ring's hole filled by the images of three contacts at its edge, BENCHMARKS.md,
+"A contact the others' images put in free space").
 
 Written here rather than taken from a library: the symmetry detectors of the mesh libraries
 (``trimesh.Trimesh.symmetry``) work on a finished, exact mesh; this works on 50-400 noisy oriented
@@ -119,7 +125,11 @@ class SymmetrySettings:
     ``prediction_significance`` / ``max_prediction_ratio``: how unlikely by chance, and by how
     many times larger in the median, the images' standardised GPIS values must be than the
     left-out contacts' to refuse a transform (None: not tested;
-    :meth:`_ImageJudge._images_worse_predicted`).
+    :meth:`_ImageJudge._images_worse_predicted`); ``dispute_depth_m`` / ``dispute_sigma`` /
+    ``dispute_rounds``: how deep in free space, in metres and in posterior standard deviations, the
+    other contacts and their images must put a contact before its images are left out, and how
+    many times that is re-judged without the images left out (None depth: never;
+    :func:`disputed_contacts`).
     """
 
     match_radius_m: float = 0.008
@@ -152,6 +162,9 @@ class SymmetrySettings:
     across_bisector: bool = True
     prediction_significance: float | None = 1e-3
     max_prediction_ratio: float = 1.5
+    dispute_depth_m: float | None = 3e-3
+    dispute_sigma: float = 2.0
+    dispute_rounds: int = 3
 
 
 @dataclass(frozen=True)
@@ -180,24 +193,29 @@ class Symmetry:
         return "mirror" if self.planes else "none"
 
     def images(self, points: np.ndarray, normals: np.ndarray,
-               settings: SymmetrySettings = SymmetrySettings()) -> tuple[np.ndarray, np.ndarray]:
+               settings: SymmetrySettings = SymmetrySettings(), return_sources: bool = False):
         """Images of the contacts under every transform, away from the contacts and each other.
 
         Parameters
         ----------
         points : (n, 3) float, object frame, metres; normals : (n, 3) float, outward unit normals.
+        return_sources : bool
+            Also return which contact each image copies.
 
         Returns
         -------
-        image_points : (k, 3) float; image_normals : (k, 3) float. An image closer than
+        image_points : (k, 3) float; image_normals : (k, 3) float; with ``return_sources``,
+        sources : (k,) int, the index of the contact each image copies. An image closer than
         ``min_image_gap_m`` to a contact or to an image kept before it is left out (it adds nothing
         a contact does not say); at most ``max_images`` are kept (an even, seeded subsample).
         """
         points, normals = np.asarray(points, float), np.asarray(normals, float)
         if not self.transforms or len(points) == 0:
-            return np.zeros((0, 3)), np.zeros((0, 3))
+            empty = (np.zeros((0, 3)), np.zeros((0, 3)))
+            return empty + (np.zeros(0, int),) if return_sources else empty
         all_points = np.vstack([points] + [points @ m.T + t for m, t in self.transforms])
         all_normals = np.vstack([normals] + [normals @ m.T for m, _ in self.transforms])
+        all_sources = np.tile(np.arange(len(points)), 1 + len(self.transforms))
         tree = cKDTree(all_points)
         taken = np.zeros(len(all_points), bool)
         taken[:len(points)] = True
@@ -205,11 +223,11 @@ class Symmetry:
             if not any(taken[j] for j in tree.query_ball_point(all_points[i], settings.min_image_gap_m)):
                 taken[i] = True
         taken[:len(points)] = False
-        image_points, image_normals = all_points[taken], all_normals[taken]
+        image_points, image_normals, sources = all_points[taken], all_normals[taken], all_sources[taken]
         if len(image_points) > settings.max_images:
             keep = np.sort(np.random.default_rng(0).choice(len(image_points), settings.max_images, replace=False))
-            image_points, image_normals = image_points[keep], image_normals[keep]
-        return image_points, image_normals
+            image_points, image_normals, sources = image_points[keep], image_normals[keep], sources[keep]
+        return (image_points, image_normals, sources) if return_sources else (image_points, image_normals)
 
 
 def reflection(normal: np.ndarray, offset_m: float) -> Transform:
@@ -318,6 +336,37 @@ def contradicted_images(gpis, images: np.ndarray, settings: SymmetrySettings = S
     if contradicted.any():
         contradicted[contradicted] = judge._in_free_space(images[contradicted])
     return contradicted
+
+
+def disputed_contacts(model, sources: np.ndarray, settings: SymmetrySettings = SymmetrySettings()) -> np.ndarray:
+    """Which contacts the other contacts and their images put in free space.
+
+    A contact a few millimetres off the surface (a pad's rim on an edge) is one wrong point; its
+    images under a revolution are fifteen, and they may fill a ring's hole (BENCHMARKS.md, "A
+    contact the others' images put in free space"). Left out with its images, such a contact is
+    predicted in free space by the surface the other contacts' images agree on, where a good one
+    is predicted on it. Only free space counts: a pad's centre can stand off the surface but not
+    sink into it, so a contact the others put inside the solid says they are wrong there.
+
+    Parameters
+    ----------
+    model : GPIS
+        Observes the ``n`` contacts first, then their images (the ``k`` last contacts).
+    sources : (k,) int
+        The contact each image copies, 0 .. n - 1.
+
+    Returns
+    -------
+    (n,) bool: ``f`` at the contact, predicted without it and its images
+    (:meth:`reconstruction.gpis.GPIS.leave_groups_out`), is deeper in free space than
+    ``dispute_depth_m`` and ``dispute_sigma`` posterior standard deviations.
+    """
+    sources = np.asarray(sources, int)
+    n = model.n_contacts - len(sources)
+    if settings.dispute_depth_m is None or n <= 0 or len(sources) == 0:
+        return np.zeros(max(n, 0), bool)
+    mean, std = model.leave_groups_out(np.concatenate([np.arange(n), sources]))
+    return (-mean > settings.dispute_depth_m) & (-mean > settings.dispute_sigma * std)
 
 
 class _ImageJudge:

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 import objects
@@ -18,8 +19,8 @@ from objects.proximity import MeshProximity
 from objects.sampling import sample_surface
 from reconstruction.gpis import GPIS
 from reconstruction.metrics import surface_error
-from reconstruction.symmetry import (Symmetry, SymmetrySettings, _ImageJudge, contradicted_images, find_symmetry, reflection,
-                                     rotation)
+from reconstruction.symmetry import (Symmetry, SymmetrySettings, _ImageJudge, contradicted_images, disputed_contacts,
+                                     find_symmetry, reflection, rotation)
 from reconstruction.synthetic_contacts import ContactNoise, sample_contacts
 
 
@@ -342,10 +343,15 @@ def test_write_mesh_says_what_symmetry_it_used(tmp_path):
     gp = GPIS(bounds=_bounds(box)).fit(points, normals)
     metrics = {}
     write_mesh(gp, 32, tmp_path, metrics, symmetry=True)
-    assert metrics["reconstruction_symmetry"] == dict(kind="mirror", transforms=7)
+    assert metrics["reconstruction_symmetry"] == dict(kind="mirror", transforms=7, disputed_contacts=0)
     plain = {}
     write_mesh(gp, 32, tmp_path, plain)
     assert "reconstruction_symmetry" not in plain
+    points[7] += 5e-3 * normals[7]  # a contact standing off a face: its images are left out
+    moved = {}
+    mesh = write_mesh(GPIS(bounds=_bounds(box)).fit(points, normals), 32, tmp_path, moved, symmetry=True)
+    assert moved["reconstruction_symmetry"] == dict(kind="mirror", transforms=7, disputed_contacts=1)
+    assert mesh.metadata["symmetry_disputed_contacts"].tolist() == [7]
 
 
 def test_sessions_recorded_before_the_setting_replay_without_it(recorded_sphere_run, tmp_path):
@@ -502,3 +508,58 @@ def test_a_blobs_near_axis_is_refused_for_images_the_gpis_predicts_worse_than_it
     off_truth = lambda m, t: np.percentile(truth.query(surface @ m.T + t)[1], 90)  # noqa: E731
     assert all(off_truth(*kept) < min(off_truth(*refused) for refused in without.transforms)
                for kept in found.transforms)
+
+
+def _vase_turns(turns=16):
+    """The vase's revolution about z as ``turns - 1`` rotations, and its contacts (no noise)."""
+    transforms = tuple(rotation(np.array([0.0, 0.0, 1.0]), np.zeros(3), 2 * np.pi * k / turns)
+                       for k in range(1, turns))
+    return Symmetry(transforms, (), (np.zeros(3), np.array([0.0, 0.0, 1.0])))
+
+
+def test_images_name_the_contact_they_copy():
+    vase = _vase()
+    points, normals, _, _ = sample_contacts(vase, 40, noise=ContactNoise.off(), seed=0)
+    found = _vase_turns()
+    images, image_normals, sources = found.images(points, normals, return_sources=True)
+    np.testing.assert_array_equal(np.column_stack(found.images(points, normals)), np.column_stack([images, image_normals]))
+    copies = np.stack([points[sources] @ m.T + t for m, t in found.transforms])   # (transforms, k, 3)
+    assert np.all(np.min(np.linalg.norm(copies - images, axis=2), axis=0) < 1e-12)
+    assert len(np.unique(sources)) > 0.9 * len(points)
+
+
+@pytest.mark.parametrize("moved_mm, disputed", [(5.0, True), (-5.0, False), (0.0, False)])
+def test_a_contact_off_the_surface_loses_its_images(moved_mm, disputed):
+    # One contact moved along its normal: out into free space (a pad's rim standing off an edge)
+    # its 15 images would put surface where the other contacts' images say there is none; the
+    # others left out predict it that deep in free space, so its images are not observed. Moved
+    # into the solid, where a pad cannot sink, it keeps them: it is the others that are wrong there.
+    vase = _vase()
+    points, normals, _, _ = sample_contacts(vase, 80, noise=ContactNoise.off(), seed=4)
+    points[0] += 1e-3 * moved_mm * normals[0]
+    found = _vase_turns()
+    gpis = GPIS(bounds=_bounds(vase)).fit(points, normals)
+    images, image_normals, sources = found.images(points, normals, return_sources=True)
+    model = copy.deepcopy(gpis).add(images, image_normals)
+    flagged = disputed_contacts(model, sources)
+    assert flagged.shape == (80,)
+    assert np.flatnonzero(flagged).tolist() == ([0] if disputed else [])
+    meshed, left_out = gpis._with_symmetric_images(found)
+    np.testing.assert_array_equal(left_out, flagged)
+    turned = np.array([m @ points[0] + t for m, t in found.transforms])
+    nearest = cKDTree(meshed.contact_points).query(turned)[0]
+    assert (np.max(nearest) > 2e-3) == disputed          # the moved contact's images are gone
+    assert meshed.n_contacts > 0.8 * (80 + len(images))  # the others' are kept
+    assert np.max(np.abs(trimesh.proximity.signed_distance(vase, meshed.contact_points[80:]))) < (
+        5e-4 if disputed or moved_mm == 0 else 6e-3)
+
+
+def test_no_dispute_when_switched_off():
+    vase = _vase()
+    points, normals, _, _ = sample_contacts(vase, 40, noise=ContactNoise.off(), seed=4)
+    points[0] += 5e-3 * normals[0]
+    found = _vase_turns()
+    images, image_normals, sources = found.images(points, normals, return_sources=True)
+    model = GPIS(bounds=_bounds(vase)).fit(np.vstack([points, images]), np.vstack([normals, image_normals]))
+    assert disputed_contacts(model, sources).any()
+    assert not disputed_contacts(model, sources, replace(SymmetrySettings(), dispute_depth_m=None)).any()
