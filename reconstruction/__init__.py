@@ -18,7 +18,7 @@ Public API:
 * :func:`find_symmetry` (-> :class:`Symmetry`, settings :class:`SymmetrySettings`): mirror planes
   or an axis of revolution the contacts support, whose images of the contacts fill sampling gaps
   (``GPIS.mesh(symmetry=True)``), less the images the hull and the GPIS both put off the surface
-  (:func:`contradicted_images`) and the images of contacts the others' images put in free space
+  (:func:`contradicted_images`) and the images of contacts the rest of the field puts in free space
   (:func:`disputed_contacts`);
 * metrics: :func:`surface_error` (-> :class:`SurfaceError`), :func:`shape_metrics`,
   :func:`symmetric_rmse_standard_error` (how much of an RMSE is the samples' own scatter),

@@ -350,69 +350,18 @@ class GPIS:
         normals = np.divide(-gradient, norm, out=np.zeros_like(gradient), where=norm > 0)
         return predicted[:, 0], np.sqrt(np.maximum(variance, 0.0)), normals
 
-    def leave_groups_out(self, groups: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``f`` at each group's first contact as the observations outside the group predict it.
-
-        A group's contacts' rows (value and gradient) are left out together, in closed form from
-        the inverse of the observation covariance as in :meth:`leave_one_out`: a contact with its
-        symmetric images, say, which would otherwise vouch for it. Only with normals.
-
-        Parameters
-        ----------
-        groups : (n_contacts,) int
-            The group of each contact, in :attr:`contact_points` order, 0 .. g - 1; -1: in no
-            group (never left out). Every group from 0 to g - 1 must have a contact.
-
-        Returns
-        -------
-        mean : (g,) float, metres
-            ``f`` predicted at each group's first contact without the group (negative: the other
-            observations put that contact in free space).
-        std : (g,) float, metres
-            The posterior standard deviation of that prediction (noise-free, as :meth:`variance`).
-        """
-        self._require_fit()
-        if not self.use_normals:
-            raise ValueError("leave_groups_out needs a GPIS with normals (use_normals=True)")
-        groups = np.asarray(groups)
-        if groups.shape != (self.n_contacts,) or not np.issubdtype(groups.dtype, np.integer):
-            raise ValueError(f"groups must be ({self.n_contacts},) integers, one per contact; got "
-                             f"{groups.dtype} of shape {groups.shape}")
-        n_groups = int(groups.max(initial=-1)) + 1
-        if groups.min(initial=0) < -1 or len(np.unique(groups[groups >= 0])) != n_groups:
-            raise ValueError("groups must number the groups 0 .. g - 1, each with a contact, and -1 for none")
-        inverse = self._observation_inverse()
-        weights = inverse @ self._y
-        contacts = np.unique(self._row_point[self._row_comp > 0])
-        point_group = np.full(len(self._obs_points), -1)
-        point_group[contacts] = groups
-        row_group = point_group[self._row_point]
-        in_group = np.flatnonzero(groups >= 0)
-        first = contacts[in_group[np.unique(groups[in_group], return_index=True)[1]]]
-        mean, std = np.zeros(n_groups), np.zeros(n_groups)
-        for g in range(n_groups):
-            rows = np.flatnonzero(row_group == g)
-            anchor = np.flatnonzero((self._row_point[rows] == first[g]) & (self._row_comp[rows] == 0))[0]
-            block = np.linalg.inv(inverse[np.ix_(rows, rows)])
-            mean[g] = self._y[rows[anchor]] - block[anchor] @ weights[rows]
-            std[g] = np.sqrt(max(block[anchor, anchor] - self._noise_var[rows[anchor]], 0.0))
-        return mean, std
-
-    def _observation_inverse(self) -> np.ndarray:
-        """(rows, rows) float64, the inverse of the observation covariance (noise included)."""
-        eye = np.eye(self.n_rows)
-        if self._factor is not None:
-            whitened = self._factor.solve_lower(eye)
-            return whitened.T @ whitened
-        return scipy.linalg.lu_solve(self._lu, eye, check_finite=False)
-
     def _left_out_blocks(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(n, 4) each contact's rows (value, gradient) predicted without them, (n, 4, 4) the
         blocks of the inverse's inverse, (n, 4) the contacts' row indices."""
         self._require_fit()
         if not self.use_normals:
             raise ValueError("leave_one_out needs a GPIS with normals (use_normals=True)")
-        inverse = self._observation_inverse()
+        eye = np.eye(self.n_rows)
+        if self._factor is not None:
+            whitened = self._factor.solve_lower(eye)
+            inverse = whitened.T @ whitened
+        else:
+            inverse = scipy.linalg.lu_solve(self._lu, eye, check_finite=False)
         contacts = np.unique(self._row_point[self._row_comp > 0])
         rows = np.full((len(contacts), 4), -1)
         mine = np.flatnonzero(np.isin(self._row_point, contacts))

@@ -551,44 +551,6 @@ def test_leave_one_out_normals_are_a_refit_without_the_contact(kernel):
     assert np.max(np.abs(left_out - normals)) > 1e-4  # not the contacts' own normals
 
 
-@pytest.mark.parametrize("kernel", ["thin_plate", "thin_plate_reference"])  # Cholesky and LU
-def test_leave_groups_out_is_a_refit_without_the_group(kernel):
-    # Against the independent answer: a GPIS fitted without a group's contacts (and with the same
-    # free-space rows), queried at the group's first contact. Contacts outside every group (-1)
-    # are never left out; groups of one are leave_one_out.
-    points, normals = sphere_contacts(24, seed=3)
-    points, normals = points * [1.0, 0.8, 0.6], normals / [1.0, 0.8, 0.6]
-    free = np.array([[0.07, 0.0, 0.0], [0.0, 0.07, 0.02]])
-    kernel = make_kernel(kernel, float(np.linalg.norm(np.subtract(BOUNDS[1], BOUNDS[0]))), 0.1)
-    gp = GPIS(kernel=kernel, bounds=BOUNDS).fit(points, normals).add_values(free, np.array([-0.02, -0.03]))
-    groups = np.full(24, -1)
-    groups[[5, 2, 17]] = 0      # the first contact of group 0 is contact 2
-    groups[[9, 10]] = 1
-    groups[20] = 2
-    mean, std = gp.leave_groups_out(groups)
-    assert mean.shape == std.shape == (3,)
-    for g, first in ((0, 2), (1, 9), (2, 20)):
-        others = groups != g
-        refit = GPIS(kernel=kernel, bounds=BOUNDS).fit(points[others], normals[others])
-        refit.add_values(free, np.array([-0.02, -0.03]))
-        refit._weights_table()
-        exact = float(refit.cross_covariance(points[first:first + 1])[:, 0] @ refit._alpha)
-        assert mean[g] == pytest.approx(exact, rel=1e-6, abs=1e-12)
-        assert std[g] == pytest.approx(np.sqrt(refit.variance(points[first:first + 1])[0]), rel=1e-6)
-    one_mean, one_std = gp.leave_one_out()
-    assert mean[2] == pytest.approx(one_mean[20], rel=1e-9) and std[2] == pytest.approx(one_std[20], rel=1e-9)
-    assert abs(mean[0] - one_mean[2]) > 1e-7  # its group's other contacts vouched for it
-
-
-def test_leave_groups_out_refuses_bad_groups():
-    points, normals = sphere_contacts(10)
-    gp = GPIS(bounds=BOUNDS).fit(points, normals)
-    for groups, match in ((np.zeros(9, int), "one per contact"), (np.zeros(10), "integers"),
-                          (np.r_[0, 2, np.zeros(8, int)], "each with a contact")):
-        with pytest.raises(ValueError, match=match):
-            gp.leave_groups_out(groups)
-
-
 def test_leave_one_out_needs_normals():
     points, _ = sphere_contacts(20)
     with pytest.raises(ValueError, match="normals"):

@@ -531,9 +531,10 @@ def test_images_name_the_contact_they_copy():
 @pytest.mark.parametrize("moved_mm, disputed", [(5.0, True), (-5.0, False), (0.0, False)])
 def test_a_contact_off_the_surface_loses_its_images(moved_mm, disputed):
     # One contact moved along its normal: out into free space (a pad's rim standing off an edge)
-    # its 15 images would put surface where the other contacts' images say there is none; the
-    # others left out predict it that deep in free space, so its images are not observed. Moved
-    # into the solid, where a pad cannot sink, it keeps them: it is the others that are wrong there.
+    # its 15 images would put surface where the other contacts' images say there is none; left out
+    # of the field with the images, it is predicted that deep in free space, so its images are not
+    # observed. Moved into the solid, where a pad cannot sink, it keeps them: it is the others
+    # that are wrong there.
     vase = _vase()
     points, normals, _, _ = sample_contacts(vase, 80, noise=ContactNoise.off(), seed=4)
     points[0] += 1e-3 * moved_mm * normals[0]
