@@ -433,8 +433,8 @@ class GPIS:
             the axis of revolution the contacts support (:meth:`symmetry`; none found: no
             change); a :class:`reconstruction.symmetry.Symmetry`: under that one. Only with
             normals; this GPIS is not changed. False (default): no images. The images of a
-            contact the other contacts and their images put in free space are left out; the
-            mesh's ``metadata["symmetry_disputed_contacts"]`` lists those contacts (indices).
+            contact that the field with the images, the contact left out, puts in free space are
+            left out; the mesh's ``metadata["symmetry_disputed_contacts"]`` lists those contacts.
         refine_steps : int, optional
             Evaluations of the mean per vertex that move it along its grid edge to the 0-level
             (:func:`reconstruction.meshing.mesh_zero_level`); None: its default, 2. 0: the linear
@@ -484,8 +484,8 @@ class GPIS:
         Images outside the GPIS's region are not used (they are inferred, not measured), nor those
         both the contacts' hull and this GPIS's mean put off the surface
         (:func:`reconstruction.symmetry.contradicted_images`: a feature a near symmetry copies),
-        nor the images of a contact the other contacts and their images put in free space
-        (:func:`reconstruction.symmetry.disputed_contacts`, re-judged without those left out)."""
+        nor the images of a contact that the field with the images, the contact left out, puts in
+        free space (:func:`reconstruction.symmetry.disputed_contacts`, re-judged without those)."""
         from reconstruction.symmetry import SymmetrySettings, contradicted_images, disputed_contacts
 
         settings = SymmetrySettings()
@@ -500,7 +500,7 @@ class GPIS:
         for _ in range(settings.dispute_rounds):
             if model is self:
                 break
-            disputed |= disputed_contacts(model, sources[used], settings)
+            disputed |= disputed_contacts(model, len(points), settings)
             dropped = used & disputed[sources]
             if not dropped.any():
                 break

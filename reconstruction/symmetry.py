@@ -339,7 +339,7 @@ def contradicted_images(gpis, images: np.ndarray, settings: SymmetrySettings = S
     return contradicted
 
 
-def disputed_contacts(model, sources: np.ndarray, settings: SymmetrySettings = SymmetrySettings()) -> np.ndarray:
+def disputed_contacts(model, n_contacts: int, settings: SymmetrySettings = SymmetrySettings()) -> np.ndarray:
     """Which contacts the other contacts and the images put in free space.
 
     A contact a few millimetres off the surface (a pad's rim on an edge) is one wrong point; its
@@ -355,21 +355,19 @@ def disputed_contacts(model, sources: np.ndarray, settings: SymmetrySettings = S
     Parameters
     ----------
     model : GPIS
-        Observes the ``n`` contacts first, then their images (the ``k`` last contacts).
-    sources : (k,) int
-        The contact each image copies, 0 .. n - 1.
+        Observes the ``n_contacts`` contacts first, then their images.
+    n_contacts : int
+        How many of the model's contacts are measured ones, not images.
 
     Returns
     -------
-    (n,) bool: ``f`` at the contact, predicted without its own rows
+    (n_contacts,) bool: ``f`` at the contact, predicted without its own rows
     (:meth:`reconstruction.gpis.GPIS.leave_one_out`), is deeper in free space than
     ``dispute_depth_m`` and ``dispute_sigma`` posterior standard deviations.
     """
-    sources = np.asarray(sources, int)
-    n = model.n_contacts - len(sources)
-    if settings.dispute_depth_m is None or n <= 0 or len(sources) == 0:
-        return np.zeros(max(n, 0), bool)
-    mean, std = (values[:n] for values in model.leave_one_out())
+    if settings.dispute_depth_m is None or model.n_contacts <= n_contacts:
+        return np.zeros(n_contacts, bool)
+    mean, std = (values[:n_contacts] for values in model.leave_one_out())
     return (-mean > settings.dispute_depth_m) & (-mean > settings.dispute_sigma * std)
 
 
