@@ -44,7 +44,8 @@ def write_mesh(gpis, resolution: int, out_dir: Path, metrics: dict, symmetry: bo
     A field with no zero level set (or no contacts) gives None, with ``reconstruction_error`` in
     ``metrics`` saying why when meshing failed. ``symmetry``: mesh with the contacts' symmetric
     images (``GPIS.mesh(symmetry=...)``); ``metrics["reconstruction_symmetry"]`` says what was
-    found (``none``, ``mirror`` or ``revolution``, with the number of transforms) and how many
+    found (``none``, ``mirror`` or ``revolution``, with the number of transforms and of contacts on a
+    feature the revolution does not hold for, ``feature_contacts``: a mug's handle) and how many
     contacts' images were left out because the field with the images put those contacts in free space
     (``disputed_contacts``).
     ``refine_steps``: as ``GPIS.mesh`` takes it (the loop passes its ``reconstruction_refine_steps``).
@@ -57,7 +58,9 @@ def write_mesh(gpis, resolution: int, out_dir: Path, metrics: dict, symmetry: bo
 
         if symmetry and isinstance(gpis, GPIS) and gpis.use_normals:  # a PartitionedGPIS meshes plainly
             found = gpis.symmetry()
-            metrics["reconstruction_symmetry"] = dict(kind=found.kind, transforms=len(found.transforms))
+            metrics["reconstruction_symmetry"] = dict(
+                kind=found.kind, transforms=len(found.transforms) + len(found.body_transforms),
+                feature_contacts=int(found.in_feature(gpis.contact_points).sum()))
             options["symmetry"] = found
         mesh = gpis.mesh(resolution=resolution, refine_steps=refine_steps, **options)
         if "symmetry" in options:
