@@ -207,7 +207,7 @@ class Symmetry:
     axis: tuple[np.ndarray, np.ndarray] | None = None
     body_transforms: tuple[Transform, ...] = ()
     feature_points: np.ndarray | None = None
-    feature_radius_m: float = 0.0
+    feature_radius_m: float = SymmetrySettings.feature_radius_m
 
     @property
     def kind(self) -> str:
@@ -330,7 +330,7 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
         v /= np.linalg.norm(v)
         point = np.linalg.solve(np.vstack([u1, u2, v]), [d1, d2, v @ centre])
         if judge.accepts(rotation(v, point, np.radians(37.0))):
-            turns = [rotation(v, point, 2 * np.pi * k / settings.rotations) for k in range(1, settings.rotations)]
+            turns = _turns(v, point, settings)
             along = [reflection(u, d) for u, d in planes if abs(u @ v) < 0.05][:1]
             across = [reflection(u, d) for u, d in planes if abs(u @ v) > 0.995][:1]
             group = list(turns)
@@ -349,8 +349,8 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
         (ma, ta), (mb, tb), (mc, tc) = group[:3]
         group.append((ma @ mb @ mc, ma @ (mb @ tc + tb) + ta))
     if feature is not None:
-        turns = [rotation(direction, point, 2 * np.pi * k / settings.rotations) for k in range(1, settings.rotations)]
-        return Symmetry(tuple(group), tuple(planes), (point, direction), body_transforms=tuple(turns),
+        return Symmetry(tuple(group), tuple(planes), (point, direction),
+                        body_transforms=tuple(_turns(direction, point, settings)),
                         feature_points=points[feature], feature_radius_m=settings.feature_radius_m)
     return Symmetry(tuple(group), tuple(planes), None)
 
@@ -601,16 +601,14 @@ class _ImageJudge:
         """Whether the images pass every test of the module docstring (only the images of the
         contacts in ``subset``, (n,) bool, if given)."""
         f, s = self.fractions(transform, subset), self.s
-        conflicts = self.face_conflicts(transform)
-        q = self.points @ transform[0].T + transform[1]
-        if subset is not None:
-            conflicts, q = conflicts[subset], q[subset]
+        chosen = slice(None) if subset is None else subset
+        # the face and prediction tests are the costly ones: asked only of a transform the shares pass
         return (f["consistent"] >= s.min_consistent and f["testable"] - f["consistent"] <= s.max_inconsistent
                 and (f["share"] >= s.min_consistent_share or f["inconsistent_count"] <= s.consistency_exceptions)
                 and f["outside"] <= s.max_outside
                 and f["free"] <= min(self.free_allowance, self._free_limit(transform))
-                and not conflicts.any()
-                and not self._images_worse_predicted(q))
+                and not self.face_conflicts(transform)[chosen].any()
+                and not self._images_worse_predicted((self.points @ transform[0].T + transform[1])[chosen]))
 
     @cached_property
     def faces(self) -> ContactFaces:
@@ -745,9 +743,14 @@ def _refine_axis(judge: _ImageJudge, v, point):
     return unpack(x)
 
 
+def _turns(v, point, settings: SymmetrySettings) -> list[Transform]:
+    """The ``rotations - 1`` turns about the axis through ``point`` along ``v``, 360 / rotations apart."""
+    return [rotation(v, point, 2 * np.pi * k / settings.rotations) for k in range(1, settings.rotations)]
+
+
 def _revolution(judge: _ImageJudge, v, point, centre, settings: SymmetrySettings) -> Symmetry:
     """The turns about an accepted axis, and the mirror across it (top-bottom) if accepted."""
-    group = [rotation(v, point, 2 * np.pi * k / settings.rotations) for k in range(1, settings.rotations)]
+    group = _turns(v, point, settings)
     d0 = float(v @ centre)
     res = minimize(lambda x: -judge.soft_score(reflection(v, x[0])), [d0], method="Nelder-Mead",
                    options=dict(xatol=1e-5, initial_simplex=[[d0], [d0 + 0.003]]))
@@ -776,14 +779,12 @@ def _feature_of_revolution(judge: _ImageJudge, v, point, settings: SymmetrySetti
     if settings.max_feature_share is None:
         return None
     turns = [rotation(v, point, np.radians(a)) for a in (37.0, 90.0)]
-    copied = [rotation(v, point, 2 * np.pi * k / settings.rotations) for k in range(1, settings.rotations)]
-    feature = np.zeros(len(judge.points), bool)
-    for turn in turns + copied:
+    refused = np.zeros(len(judge.points), bool)
+    for turn in turns + _turns(v, point, settings):
         verdict = judge.verdicts(turn)
-        feature |= verdict["free"] | verdict["outside"] | (verdict["testable"] & ~verdict["consistent"])
-    if settings.feature_radius_m > 0.0 and feature.any():
-        distance, _ = cKDTree(judge.points[feature]).query(judge.points)
-        feature = distance <= settings.feature_radius_m
+        refused |= verdict["free"] | verdict["outside"] | (verdict["testable"] & ~verdict["consistent"])
+    grown = Symmetry(feature_points=judge.points[refused], feature_radius_m=settings.feature_radius_m)
+    feature = grown.in_feature(judge.points)
     if not feature.any() or feature.mean() > settings.max_feature_share:
         return None
     body = ~feature
