@@ -123,12 +123,12 @@ def test_write_mesh_counts_the_feature_contacts(tmp_path):
     mug = objects.load("generated:mug/0").mesh
     points, normals, _, _ = sample_contacts(mug, 300, noise=ContactNoise.off(), seed=0)
     gp = GPIS(bounds=_bounds(mug)).fit(points, normals)
-    found = gp.symmetry()
     metrics = {}
-    write_mesh(gp, 32, tmp_path, metrics, symmetry=True)
-    assert metrics["reconstruction_symmetry"]["kind"] == "revolution"
-    assert metrics["reconstruction_symmetry"]["feature_contacts"] == found.in_feature(points).sum() > 0
-    assert metrics["reconstruction_symmetry"]["transforms"] == len(found.transforms) + len(found.body_transforms)
+    write_mesh(gp, 32, tmp_path, metrics, symmetry=True)  # one search: the handle test above checks what it finds
+    found = metrics["reconstruction_symmetry"]
+    assert found["kind"] == "revolution"
+    assert 0 < found["feature_contacts"] <= SymmetrySettings().max_feature_share * len(points)
+    assert found["transforms"] == 1 + (SymmetrySettings().rotations - 1)  # the handle's mirror and the body's turns
 
 
 def test_without_features_the_handle_refuses_the_revolution_but_keeps_its_mirror():
