@@ -5,6 +5,7 @@ import pytest
 import trimesh
 
 from explorer.evaluation import reconstruction_errors
+from objects import proximity
 from objects.proximity import MeshProximity, angle_to_cone
 
 
@@ -94,6 +95,53 @@ def test_angle_to_a_cone_matches_a_brute_force_search(seed):
         searched = brute_force_angle(direction, generators)
         assert exact <= searched + 1e-9  # never more than an angle actually reached
         assert searched - exact < np.radians(0.5)
+
+
+def _every_pair_angle(direction, generators, monkeypatch):
+    monkeypatch.setattr(proximity, "PAIRWISE_GENERATORS", 10 ** 6)
+    angle = angle_to_cone(direction, generators)
+    monkeypatch.undo()
+    return angle
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_cone_of_many_generators_cut_to_its_boundary_gives_every_pair_s_angle(seed, monkeypatch):
+    rng = np.random.default_rng(seed)
+    axis = unit(rng.normal(size=3))
+    generators = unit(axis + 0.6 * rng.normal(size=(int(rng.integers(9, 40)), 3)))
+    generators = generators[generators @ axis > 0.3]
+    assert len(generators) > proximity.PAIRWISE_GENERATORS
+    for direction in unit(rng.normal(size=(12, 3))):
+        assert angle_to_cone(direction, generators) == pytest.approx(
+            _every_pair_angle(direction, generators, monkeypatch), abs=1e-12)
+
+
+def test_a_fan_of_faces_at_a_pole_and_generators_on_one_great_circle(monkeypatch):
+    """384 normals tilted 5 deg round the z axis (a revolved mesh's pole): a direction tilted 12 deg
+    towards one of them is 7 deg from the cone; along one great circle only its two ends count."""
+    azimuth = np.linspace(0.0, 2 * np.pi, 384, endpoint=False)
+    tilt = np.radians(5.0)
+    fan = np.column_stack([np.sin(tilt) * np.cos(azimuth), np.sin(tilt) * np.sin(azimuth), np.full(384, np.cos(tilt))])
+    direction = np.array([np.sin(np.radians(12.0)), 0.0, np.cos(np.radians(12.0))])
+    assert np.degrees(angle_to_cone(direction, fan)) == pytest.approx(7.0, abs=1e-9)
+    assert angle_to_cone(np.array([0.0, 0.0, 1.0]), fan) == 0.0
+    along = np.radians(np.linspace(-20.0, 30.0, 12))
+    arc = np.column_stack([np.sin(along), np.zeros(12), np.cos(along)])
+    for direction in unit([[1.0, 0.0, 0.2], [0.3, 0.4, 1.0], [-1.0, 0.1, 1.0]]):
+        assert angle_to_cone(direction, arc) == pytest.approx(_every_pair_angle(direction, arc, monkeypatch), abs=1e-12)
+
+
+def test_contacts_at_a_pole_where_hundreds_of_faces_meet_score_as_with_every_pair(monkeypatch):
+    """A UV sphere's poles are fans of 128 faces: near them the points tied for closest and the
+    generators are many; one point per place and the cone's boundary give every pair's answer."""
+    sphere = trimesh.creation.uv_sphere(radius=0.05, count=[32, 128])
+    rng = np.random.default_rng(7)
+    points = np.array([[0.0, 0.0, 0.0504], [1e-4, -5e-5, 0.0502], [0.0, 0.0, -0.0503]]) + rng.normal(scale=2e-5, size=(3, 3))
+    normals = unit(np.sign(points[:, 2:]) * np.array([0.0, 0.0, 1.0]) + rng.normal(scale=0.2, size=(3, 3)))
+    fast = MeshProximity(sphere).normal_cone_error(points, normals)
+    monkeypatch.setattr(proximity, "PAIRWISE_GENERATORS", 10 ** 6)
+    np.testing.assert_allclose(fast, MeshProximity(sphere).normal_cone_error(points, normals), rtol=0, atol=1e-12)
+    assert np.all(fast > 0.0)
 
 
 def test_on_a_faceted_sphere_the_cone_error_never_exceeds_the_closest_face_error():
