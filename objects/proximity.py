@@ -19,7 +19,9 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 from scipy.optimize import nnls
-from scipy.spatial import cKDTree
+from scipy.spatial import ConvexHull, QhullError, cKDTree
+
+from common.directions import perpendicular_frame
 
 #: Faces within this of a closest point span its normal cone (metres for the truth meshes: their
 #: promised discretisation error, 0.1 mm).
@@ -275,10 +277,7 @@ def angle_to_cone(direction: np.ndarray, generators: np.ndarray) -> float:
         _, residual = nnls(generators.T, direction)
         if residual < 1e-9:
             return 0.0
-    if len(generators) > PAIRWISE_GENERATORS:
-        pairs = cone_boundary_pairs(generators)
-    else:
-        pairs = [(i, j) for i in range(len(generators)) for j in range(i + 1, len(generators))]
+    pairs = cone_boundary_pairs(generators) if len(generators) > PAIRWISE_GENERATORS else _every_pair(len(generators))
     first, second = np.array(pairs).T
     return min(best, float(_angles_to_arcs(direction, generators[first], generators[second]).min()))
 
@@ -300,23 +299,25 @@ def cone_boundary_pairs(generators: np.ndarray) -> list[tuple[int, int]]:
     ----------
     generators : (k, 3) float, unit
     """
-    from scipy.spatial import ConvexHull, QhullError
-
     mean = generators.sum(0)
-    heights = generators @ (mean / max(float(np.linalg.norm(mean)), 1e-300))
-    if np.linalg.norm(mean) < 1e-12 or heights.min() <= 1e-6:
-        return [(i, j) for i in range(len(generators)) for j in range(i + 1, len(generators))]
+    if np.linalg.norm(mean) < 1e-12:
+        return _every_pair(len(generators))
     mean = mean / np.linalg.norm(mean)
-    side = np.cross(mean, np.eye(3)[int(np.argmin(np.abs(mean)))])
-    side /= np.linalg.norm(side)
-    basis = np.stack([side, np.cross(mean, side)], 1)                           # (3, 2)
-    flat = (generators / heights[:, None]) @ basis                               # (k, 2)
+    heights = generators @ mean
+    if heights.min() <= 1e-6:
+        return _every_pair(len(generators))
+    side_1, side_2 = perpendicular_frame(mean[None])
+    flat = (generators / heights[:, None]) @ np.column_stack([side_1[0], side_2[0]])   # (k, 2)
     try:
         vertices = ConvexHull(flat).vertices                                     # counter-clockwise
     except QhullError:                                                           # on one line
         along = (flat - flat.mean(0)) @ np.linalg.svd(flat - flat.mean(0))[2][0]
         return [(int(np.argmin(along)), int(np.argmax(along)))]
     return [(int(a), int(b)) for a, b in zip(vertices, np.roll(vertices, -1))]
+
+
+def _every_pair(count: int) -> list[tuple[int, int]]:
+    return [(i, j) for i in range(count) for j in range(i + 1, count)]
 
 
 def _angles_to_arcs(direction: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
