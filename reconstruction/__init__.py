@@ -19,7 +19,8 @@ Public API:
   or an axis of revolution the contacts support, whose images of the contacts fill sampling gaps
   (``GPIS.mesh(symmetry=True)``), less the images the hull and the GPIS both put off the surface
   (:func:`contradicted_images`) and the images of contacts the rest of the field puts in free space
-  (:func:`disputed_contacts`);
+  (:func:`disputed_contacts`); :func:`profile_misfit` (how thick the contacts' profile about an
+  axis is: an accepted axis is polished where it is thinnest);
 * metrics: :func:`surface_error` (-> :class:`SurfaceError`), :func:`shape_metrics`,
   :func:`symmetric_rmse_standard_error` (how much of an RMSE is the samples' own scatter),
   :func:`point_cloud_metrics` (-> :class:`ShapeMetrics`: Chamfer, F-score, normal consistency),
@@ -58,6 +59,7 @@ _LAZY = {
     "find_symmetry": "reconstruction.symmetry",
     "contradicted_images": "reconstruction.symmetry",
     "disputed_contacts": "reconstruction.symmetry",
+    "profile_misfit": "reconstruction.symmetry",
     "SurfaceError": "reconstruction.metrics",
     "Topology": "reconstruction.topology",
     "surface_topology": "reconstruction.topology",

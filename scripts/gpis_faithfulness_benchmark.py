@@ -137,8 +137,10 @@ METHODS["symmetry"] = METHODS["symmetry-uncut"] = _current_default
 MESH_OPTIONS["symmetry"] = {"symmetry": True}
 MESH_OPTIONS["symmetry-uncut"] = {"symmetry": True, "cut_at_faces": False}
 #: The symmetry found with other settings (``find_symmetry(..., settings)``): without a feature left out
-#: of an axis of revolution (a mug's handle; the search before it).
-SYMMETRY_SETTINGS = {"symmetry-no-feature": SymmetrySettings(max_feature_share=None)}
+#: of an axis of revolution (a mug's handle; the search before it), without the axis polished by its
+#: profile (the search before it).
+SYMMETRY_SETTINGS = {"symmetry-no-feature": SymmetrySettings(max_feature_share=None),
+                     "symmetry-unpolished": SymmetrySettings(profile_scales_m=())}
 METHODS.update({name: _current_default for name in SYMMETRY_SETTINGS})
 MESH_OPTIONS.update({name: {"outside_evidence": False} for name in EVIDENCE_VARIANTS})  # rows already added
 

@@ -19,8 +19,8 @@ from objects.proximity import MeshProximity
 from objects.sampling import sample_surface
 from reconstruction.gpis import GPIS
 from reconstruction.metrics import surface_error
-from reconstruction.symmetry import (Symmetry, SymmetrySettings, _ImageJudge, contradicted_images, disputed_contacts,
-                                     find_symmetry, reflection, rotation)
+from reconstruction.symmetry import (Symmetry, SymmetrySettings, _ImageJudge, _polish_axis, contradicted_images,
+                                     disputed_contacts, find_symmetry, profile_misfit, reflection, rotation)
 from reconstruction.synthetic_contacts import ContactNoise, sample_contacts
 
 
@@ -622,3 +622,61 @@ def test_no_dispute_when_switched_off():
     model = GPIS(bounds=_bounds(vase)).fit(np.vstack([points, images]), np.vstack([normals, image_normals]))
     assert disputed_contacts(model, 40).any()
     assert not disputed_contacts(model, 40, replace(SymmetrySettings(), dispute_depth_m=None)).any()
+
+
+def _tilted(direction, degrees, towards):
+    """``direction`` turned by ``degrees`` towards the unit vector ``towards`` (perpendicular to it)."""
+    a = np.radians(degrees)
+    return np.cos(a) * np.asarray(direction, float) + np.sin(a) * np.asarray(towards, float)
+
+
+def test_a_cones_profile_misfit_is_zero_about_its_axis_wherever_the_point_lies_on_it():
+    # Exact points of a cone's side about z: in (height, radius) they lie on one straight line, so
+    # every contact's distance from the line through its profile neighbours is zero (closed form);
+    # off the axis the radius varies with the azimuth and the profile thickens.
+    rng = np.random.default_rng(0)
+    height, azimuth = rng.uniform(-0.05, 0.05, 300), rng.uniform(0.0, 2 * np.pi, 300)
+    radius = 0.04 + 0.2 * height
+    points = np.column_stack([radius * np.cos(azimuth), radius * np.sin(azimuth), height])
+    normals = np.column_stack([np.cos(azimuth), np.sin(azimuth), -0.2 * np.ones(300)])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    z = np.array([0.0, 0.0, 1.0])
+    for along in (0.0, 0.03):
+        assert profile_misfit(points, normals, z, along * z, 5e-4) < 1e-12
+    assert profile_misfit(points, normals, _tilted(z, 2.0, [1.0, 0.0, 0.0]), np.zeros(3), 5e-4) > 0.05
+    assert profile_misfit(points, normals, z, np.array([0.002, 0.0, 0.0]), 5e-4) > 0.05
+
+
+def test_a_bowls_axis_is_polished_from_a_start_degrees_off():
+    # 150 noisy contacts on the tuning bowl (its axis z through the origin), four draws; the polish
+    # starts 2 deg and 2 mm off, where the images' soft score is flat (BENCHMARKS.md, "An axis
+    # polished by its profile"). It never thickens the profile, and typically lands within a few
+    # tenths of a degree (a local search may stop short on one draw of several).
+    bowl = objects.load("generated:bowl/0").mesh
+    z, start_point, settings = np.array([0.0, 0.0, 1.0]), np.array([0.002, -0.001, 0.0]), SymmetrySettings()
+    tilts, offsets = [], []
+    for seed in range(4):
+        points, normals, _, _ = sample_contacts(bowl, 150, seed=seed)
+        normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+        start = _tilted(z, 2.0, [np.cos(seed), np.sin(seed), 0.0])
+        direction, point = _polish_axis(points, normals, start, start_point, settings)
+        fine = settings.profile_scales_m[-1]
+        assert profile_misfit(points, normals, direction, point, fine) <= profile_misfit(points, normals, start, start_point, fine)
+        tilts.append(np.degrees(np.arccos(min(1.0, abs(direction @ z)))))
+        offsets.append(np.linalg.norm(point - (point @ direction) * direction))
+    assert np.median(tilts) < 0.5 and np.median(offsets) < 1e-3
+    assert _polish_axis(points, normals, start, start_point, SymmetrySettings(profile_scales_m=())) is None
+
+
+def test_an_accepted_axis_is_the_polished_one():
+    # tuning bowl/0, draw 1 of the faithfulness benchmark at 100 contacts: the images' refinement
+    # accepted an axis 1.9 deg off (0.97 mm); the polished axis is accepted instead.
+    bowl = objects.load("generated:bowl/0").mesh
+    points, normals, _, _ = sample_contacts(bowl, 100, seed=101, pool=4000)
+    gpis = GPIS(bounds=_bounds(bowl)).fit(points, normals)
+    tilt = {}
+    for name, settings in (("polished", SymmetrySettings()), ("refined", SymmetrySettings(profile_scales_m=()))):
+        found = find_symmetry(gpis.contact_points, gpis.contact_normals, gpis, settings)
+        assert found.kind == "revolution"
+        tilt[name] = np.degrees(np.arccos(min(1.0, abs(found.axis[1][2]))))
+    assert tilt["polished"] < min(0.5, tilt["refined"] / 2)
