@@ -733,22 +733,33 @@ def _fit_axis(points, normals, directions: int = 400, starts: int = 5):
     return (None, None) if best is None else (best[1], best[2])
 
 
-def _refine_axis(judge: _ImageJudge, v, point):
-    """Refine the axis on the images of turns by 37, 90 and 180 deg, coarse then fine."""
+def _axis_search(v, point):
+    """An axis near (``v``, ``point``) as four search parameters: the direction's polar and azimuth
+    angles (radians) and the point's offsets across ``v`` (metres). Returns the start (4,),
+    ``unpack(x) -> (direction, point)`` and ``simplex(x, (angle_step, offset_step))``, the
+    Nelder-Mead start simplex (5 vertices)."""
     e1, e2 = (w[0] for w in perpendicular_frame(v[None]))
 
     def unpack(x):
         return _unit(x[0], x[1]), point + x[2] * e1 + x[3] * e2
 
+    def simplex(x, step):
+        return [x] + [x + np.eye(4)[i] * (step[0] if i < 2 else step[1]) for i in range(4)]
+
+    return np.array([*_angles(v), 0.0, 0.0]), unpack, simplex
+
+
+def _refine_axis(judge: _ImageJudge, v, point):
+    """Refine the axis on the images of turns by 37, 90 and 180 deg, coarse then fine."""
+    x, unpack, simplex = _axis_search(v, point)
+
     def score(x, tolerance):
         d, a = unpack(x)
         return -sum(judge.soft_score(rotation(d, a, np.radians(angle)), tolerance) for angle in (37.0, 90.0, 180.0))
 
-    x = np.array([*_angles(v), 0.0, 0.0])
     for tolerance, step in ((judge.s.plane_tolerance_m, (0.03, 0.002)), (judge.s.fine_tolerance_m, (0.01, 0.001))):
-        simplex = [x] + [x + np.eye(4)[i] * (step[0] if i < 2 else step[1]) for i in range(4)]
         x = minimize(score, x, args=(tolerance,), method="Nelder-Mead",
-                     options=dict(xatol=1e-6, fatol=1e-6, maxiter=400, initial_simplex=simplex)).x
+                     options=dict(xatol=1e-6, fatol=1e-6, maxiter=400, initial_simplex=simplex(x, step))).x
     return unpack(x)
 
 
@@ -815,22 +826,17 @@ def _polish_axis(points, normals, v, point, settings: SymmetrySettings):
     finest scale; None when not asked for (``profile_scales_m`` empty).
 
     The images' soft score that refines the axis is flat within a degree or two at 100-200
-    contacts, so a bowl's accepted axis was 1-3 deg off and lost 0.2-0.65 mm, and one off by 2 deg
-    was refused and left only mirror planes; the profile uses every contact at every azimuth at
-    once (BENCHMARKS.md, "An axis polished by its profile")."""
+    contacts, so a bowl's accepted axis was 1-3 deg off and lost 0.2-0.65 mm; the profile uses
+    every contact at every azimuth at once (BENCHMARKS.md, "An axis polished by its profile").
+    Only an accepted axis is polished: from a refused one far off, the polish can stop on a
+    wrong axis that the turns then accept."""
     if not settings.profile_scales_m:
         return None
-    e1, e2 = (w[0] for w in perpendicular_frame(v[None]))
-
-    def unpack(x):
-        return _unit(x[0], x[1]), point + x[2] * e1 + x[3] * e2
-
-    x = np.array([*_angles(v), 0.0, 0.0])
+    x, unpack, simplex = _axis_search(v, point)
     for k, scale in enumerate(settings.profile_scales_m):
         step = (0.05, 0.005) if k == 0 else (0.01, 0.001)
-        simplex = [x] + [x + np.eye(4)[i] * (step[0] if i < 2 else step[1]) for i in range(4)]
         x = minimize(lambda y: profile_misfit(points, normals, *unpack(y), scale), x, method="Nelder-Mead",
-                     options=dict(xatol=1e-6, fatol=1e-8, maxiter=600, initial_simplex=simplex)).x
+                     options=dict(xatol=1e-6, fatol=1e-8, maxiter=600, initial_simplex=simplex(x, step))).x
     fine = settings.profile_scales_m[-1]
     if profile_misfit(points, normals, *unpack(x), fine) > profile_misfit(points, normals, v, point, fine):
         return v, point  # the coarse stage moved it to a thicker profile
