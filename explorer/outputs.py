@@ -45,7 +45,8 @@ def write_mesh(gpis, resolution: int, out_dir: Path, metrics: dict, symmetry: bo
     ``metrics`` saying why when meshing failed. ``symmetry``: mesh with the contacts' symmetric
     images (``GPIS.mesh(symmetry=...)``); ``metrics["reconstruction_symmetry"]`` says what was
     found (``none``, ``mirror`` or ``revolution``, with the number of transforms and of contacts on a
-    feature the revolution does not hold for, ``feature_contacts``: a mug's handle) and how many
+    feature the revolution or its mirror across the axis does not hold for, ``feature_contacts``: a
+    mug's handle, an apple's stem) and how many
     contacts' images were left out because the field with the images put those contacts in free space
     (``disputed_contacts``).
     ``refine_steps``: as ``GPIS.mesh`` takes it (the loop passes its ``reconstruction_refine_steps``).

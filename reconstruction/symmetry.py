@@ -51,7 +51,10 @@ directions), then refined on the images of rotations by 37, 90 and 180 deg, and 
 images of 37 and 90 deg turns. An accepted axis is then polished where the contacts' profile in
 (height, radius) about it is thinnest (:func:`profile_misfit`), and the polished axis replaces it
 if its turns are accepted too: the images' score is flat within a degree or two, the profile is
-not. Otherwise mirror planes: a hemisphere of plane normals through the
+not. A refused axis is polished too, from itself and from starts tilted 2 deg about it (a
+plate's normals pin its axis poorly, so the refined one can be degrees off): the thinnest profile
+whose turns are accepted is the axis, unless the mirror planes below cross in an axis of
+revolution about which the profile is thinner (:func:`_rescue_axis`). Otherwise mirror planes: a hemisphere of plane normals through the
 contacts' centroid, the best ``starts`` refined (Nelder-Mead on a soft score, then a finer one),
 up to three accepted planes at least 80 deg apart. An axis the turns refused (a mug: its handle)
 first offers the planes through it, scored every 2 deg, as starts: every one of them fits the cup
@@ -64,7 +67,11 @@ others' images pass every test: the turns then copy every contact but the featur
 onto it (``Symmetry.body_transforms``), beside the planes found. Without them a mug's opening,
 where nothing is touched, was left to the plain GPIS, which can close it with a dome 2 cm high
 (BENCHMARKS.md, "A handle is a feature of the cup's revolution"). The soft
-score counts images in the GPIS's free space or solid too (its mean on a grid). Two accepted
+score counts images in the GPIS's free space or solid too (its mean on a grid). An axis's mirror
+across it (top to bottom) is placed where the contacts' profile maps onto itself
+(:func:`_mirror_offset`), and leaves out a feature the same way: the contacts whose mirrored
+profile points lie off the profile or whose images the GPIS puts in free space or solid, an
+apple's stem (:func:`_feature_of_mirror`). Two accepted
 planes whose intersection is an axis of revolution (images of a 37 deg turn accepted) give the
 revolution too.
 
@@ -94,7 +101,7 @@ from functools import cached_property
 
 import numpy as np
 from scipy.ndimage import map_coordinates
-from scipy.optimize import minimize
+from scipy.optimize import minimize, minimize_scalar
 from scipy.spatial import ConvexHull, cKDTree
 from scipy.spatial.transform import Rotation
 from scipy.stats import binom, mannwhitneyu
@@ -144,7 +151,12 @@ class SymmetrySettings:
     never; :func:`_feature_of_revolution`), and ``feature_radius_m`` how near those contacts a
     contact or an image counts as part of the feature; ``profile_scales_m``: the residual scales
     (Huber) of the stages that polish an axis by its profile (:func:`_polish_axis`; empty: not
-    polished).
+    polished); ``rescue_starts`` / ``rescue_tilt_rad``: the starts tilted about a refused axis
+    from which it is polished again, and their tilt (None: a refused axis is not polished;
+    :func:`_rescue_axis`); ``mirror_by_profile``: the mirror across an axis of revolution is
+    placed by the contacts' profile and leaves out the contacts it maps off it (a stem;
+    :func:`_mirror_offset`, :func:`_feature_of_mirror`; False: as the images' score places it,
+    for every contact).
     """
 
     match_radius_m: float = 0.008
@@ -183,6 +195,9 @@ class SymmetrySettings:
     max_feature_share: float | None = 0.2
     feature_radius_m: float = 0.008
     profile_scales_m: tuple[float, ...] = (2e-3, 5e-4, 5e-4)
+    rescue_starts: int | None = 4
+    rescue_tilt_rad: float = float(np.radians(2.0))
+    mirror_by_profile: bool = True
 
 
 @dataclass(frozen=True)
@@ -198,12 +213,13 @@ class Symmetry:
     axis : (point (3,), direction (3,)) or None
         The axis of revolution, metres / unit vector; None if not a surface of revolution.
     body_transforms : tuple of (M (3, 3), t (3,))
-        Turns about ``axis`` that hold for every part but a feature (a mug's handle): applied only
-        to points farther than ``feature_radius_m`` from every point of ``feature_points``, and
-        their images kept only where they land as far from the feature (a cup's wall turned onto
-        the handle's root).
+        Transforms that hold for every part but a feature: turns about ``axis`` that a mug's
+        handle refused, or the mirror across the axis (and its products with the turns) that an
+        apple's stem refused. Applied only to points farther than ``feature_radius_m`` from every
+        point of ``feature_points``, and their images kept only where they land as far from the
+        feature (a cup's wall turned onto the handle's root).
     feature_points : (k, 3) float or None
-        The contacts the turns refused, object frame, metres.
+        The contacts the body's transforms leave out, object frame, metres.
     feature_radius_m : float
         How near a feature contact a point counts as part of the feature, metres.
     """
@@ -317,6 +333,7 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
     direction, point = _fit_axis(points, normals)
     through_axis: list[tuple[np.ndarray, float]] = []
     feature = None
+    rescued = None
     if direction is not None:
         direction, point = _refine_axis(judge, direction, point)
         if _turns_accepted(judge, direction, point):
@@ -324,8 +341,10 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
             if polished is not None and _turns_accepted(judge, *polished):
                 direction, point = polished
             return _revolution(judge, direction, point, centre, settings)
-        through_axis, typical_free = _planes_through_axis(judge, direction, point, settings)
-        if typical_free > settings.max_free:
+        rescued = _rescue_axis(judge, direction, point, settings)
+        if rescued is None:
+            through_axis, typical_free = _planes_through_axis(judge, direction, point, settings)
+        if rescued is None and typical_free > settings.max_free:
             # A feature refused the axis (the planes through it put its images in free space): a
             # plane through the axis is its mirror only if it halves that share (a plane 10 deg off
             # a mug's handle still passes max_free), and the axis may hold for the rest.
@@ -337,9 +356,11 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
         (u1, d1), (u2, d2) = planes[:2]
         v = np.cross(u1, u2)
         v /= np.linalg.norm(v)
-        point = np.linalg.solve(np.vstack([u1, u2, v]), [d1, d2, v @ centre])
-        if judge.accepts(rotation(v, point, np.radians(37.0))):
-            turns = _turns(v, point, settings)
+        crossing = np.linalg.solve(np.vstack([u1, u2, v]), [d1, d2, v @ centre])
+        if judge.accepts(rotation(v, crossing, np.radians(37.0))):
+            if rescued is not None and _thinner(judge, rescued, (v, crossing), settings):
+                return _revolution(judge, *rescued, centre, settings)
+            turns = _turns(v, crossing, settings)
             along = [reflection(u, d) for u, d in planes if abs(u @ v) < 0.05][:1]
             across = [reflection(u, d) for u, d in planes if abs(u @ v) > 0.995][:1]
             group = list(turns)
@@ -347,7 +368,9 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
                 group += [(m, t)] + [(m @ r, m @ s + t) for r, s in turns]
             for m, t in across:
                 group = group + [(m, t)] + [(m @ a, m @ b + t) for a, b in group]
-            return Symmetry(tuple(group), tuple(planes), (point, v))
+            return Symmetry(tuple(group), tuple(planes), (crossing, v))
+    if rescued is not None:
+        return _revolution(judge, *rescued, centre, settings)
     group = [reflection(u, d) for u, d in planes]
     for a in range(len(planes)):
         for b in range(a + 1, len(planes)):
@@ -793,6 +816,22 @@ def profile_misfit(points: np.ndarray, normals: np.ndarray, direction: np.ndarra
         Mean of ``huber(residual / scale_m)`` over the contacts with at least three profile
         neighbours (inf if none has).
     """
+    profile, profile_normal = _profile(points, normals, direction, point)
+    residual = _profile_residuals(profile, profile_normal, profile, profile_normal, neighbours, radius_m, skip_self=True)
+    return _mean_huber(residual, scale_m)
+
+
+def _mean_huber(residual: np.ndarray, scale_m: float) -> float:
+    """Mean Huber loss of the finite residuals (metres) at ``scale_m``; inf if none is finite."""
+    r = residual[np.isfinite(residual)] / scale_m
+    if not len(r):
+        return float("inf")
+    return float(np.mean(np.where(r < 1.0, 0.5 * r ** 2, r - 0.5)))
+
+
+def _profile(points, normals, direction, point):
+    """(n, 2) the contacts' (height along the axis, radius) and (n, 2) their unit normals in that
+    half-plane, about the axis through ``point`` along ``direction``."""
     rel = points - point
     height = rel @ direction
     radial = rel - np.outer(height, direction)
@@ -801,22 +840,29 @@ def profile_misfit(points: np.ndarray, normals: np.ndarray, direction: np.ndarra
     profile = np.column_stack([height, radius])
     profile_normal = np.column_stack([normals @ direction, np.einsum("ij,ij->i", normals, outward)])
     profile_normal /= np.maximum(np.linalg.norm(profile_normal, axis=1, keepdims=True), 1e-12)
-    dist, idx = cKDTree(profile).query(profile, k=neighbours + 1, distance_upper_bound=radius_m)
-    dist, idx = dist[:, 1:], idx[:, 1:]
+    return profile, profile_normal
+
+
+def _profile_residuals(query, query_normals, reference, reference_normals, neighbours: int, radius_m: float,
+                       skip_self: bool) -> np.ndarray:
+    """(m,) each query profile point's distance from the total-least-squares line through its
+    reference neighbours (at most ``neighbours`` within ``radius_m`` whose normals agree within
+    30 deg; ``skip_self``: the nearest, the point itself, is not one); NaN with fewer than three."""
+    skip = int(skip_self)
+    dist, idx = cKDTree(reference).query(query, k=neighbours + skip, distance_upper_bound=radius_m)
+    dist, idx = dist[:, skip:], idx[:, skip:]
     near = np.isfinite(dist)
     idx = np.where(near, idx, 0)
-    use = near & (np.einsum("ikj,ij->ik", profile_normal[idx], profile_normal) > np.cos(np.radians(30.0)))
+    use = near & (np.einsum("ikj,ij->ik", reference_normals[idx], query_normals) > np.cos(np.radians(30.0)))
     count = use.sum(axis=1)
-    centroid = (use[..., None] * profile[idx]).sum(axis=1) / np.maximum(count, 1)[:, None]
-    d = profile[idx] - centroid[:, None, :]
+    centroid = (use[..., None] * reference[idx]).sum(axis=1) / np.maximum(count, 1)[:, None]
+    d = reference[idx] - centroid[:, None, :]
     sxx, syy = (use * d[..., 0] ** 2).sum(axis=1), (use * d[..., 1] ** 2).sum(axis=1)
     sxy = (use * d[..., 0] * d[..., 1]).sum(axis=1)
     along = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)  # the neighbours' principal direction
-    off = profile - centroid
-    residual = np.abs(-np.sin(along) * off[:, 0] + np.cos(along) * off[:, 1])[count >= 3] / scale_m
-    if not len(residual):
-        return float("inf")
-    return float(np.mean(np.where(residual < 1.0, 0.5 * residual ** 2, residual - 0.5)))
+    off = query - centroid
+    residual = np.abs(-np.sin(along) * off[:, 0] + np.cos(along) * off[:, 1])
+    return np.where(count >= 3, residual, np.nan)
 
 
 def _polish_axis(points, normals, v, point, settings: SymmetrySettings):
@@ -828,8 +874,8 @@ def _polish_axis(points, normals, v, point, settings: SymmetrySettings):
     The images' soft score that refines the axis is flat within a degree or two at 100-200
     contacts, so a bowl's accepted axis was 1-3 deg off and lost 0.2-0.65 mm; the profile uses
     every contact at every azimuth at once (BENCHMARKS.md, "An axis polished by its profile").
-    Only an accepted axis is polished: from a refused one far off, the polish can stop on a
-    wrong axis that the turns then accept."""
+    From a refused axis far off, the polish can stop on a wrong axis that the turns then accept:
+    :func:`_rescue_axis` polishes a refused one only with its safeguards."""
     if not settings.profile_scales_m:
         return None
     x, unpack, simplex = _axis_search(v, point)
@@ -841,6 +887,38 @@ def _polish_axis(points, normals, v, point, settings: SymmetrySettings):
     if profile_misfit(points, normals, *unpack(x), fine) > profile_misfit(points, normals, v, point, fine):
         return v, point  # the coarse stage moved it to a thicker profile
     return unpack(x)
+
+
+def _rescue_axis(judge: _ImageJudge, v, point, settings: SymmetrySettings):
+    """(direction, point) of an axis whose turns pass every test, polished from a refused one and
+    from ``rescue_starts`` starts tilted ``rescue_tilt_rad`` about it, the thinnest profile of
+    those accepted; None if none is (or ``rescue_starts`` is None).
+
+    A plate's or a shallow bowl's normals pin its axis poorly, so the refined axis can be a few
+    degrees off and refused; its profile pins it (BENCHMARKS.md, "A refused axis rescued by its
+    profile"). The polish can also stop on a wrong axis that the turns accept, which
+    :func:`_thinner` weighs against the mirror planes' axis."""
+    if settings.rescue_starts is None or not settings.profile_scales_m:
+        return None
+    e1, e2 = (w[0] for w in perpendicular_frame(v[None]))
+    starts = [v] + [np.cos(settings.rescue_tilt_rad) * v + np.sin(settings.rescue_tilt_rad)
+                    * (np.cos(a) * e1 + np.sin(a) * e2)
+                    for a in 2 * np.pi * np.arange(settings.rescue_starts) / max(settings.rescue_starts, 1)]
+    fine = settings.profile_scales_m[-1]
+    best = None
+    for start in starts:
+        axis = _polish_axis(judge.points, judge.normals, start, point, settings)
+        misfit = profile_misfit(judge.points, judge.normals, *axis, fine)
+        if (best is None or misfit < best[0]) and _turns_accepted(judge, *axis):
+            best = (misfit, axis)
+    return None if best is None else best[1]
+
+
+def _thinner(judge: _ImageJudge, axis, other, settings: SymmetrySettings) -> bool:
+    """Whether the contacts' profile about ``axis`` is thinner than about ``other`` (each
+    (direction, point)), at the finest polishing scale."""
+    fine = settings.profile_scales_m[-1]
+    return profile_misfit(judge.points, judge.normals, *axis, fine) < profile_misfit(judge.points, judge.normals, *other, fine)
 
 
 def _turns_accepted(judge: _ImageJudge, v, point) -> bool:
@@ -859,13 +937,76 @@ def _revolution(judge: _ImageJudge, v, point, centre, settings: SymmetrySettings
     d0 = float(v @ centre)
     res = minimize(lambda x: -judge.soft_score(reflection(v, x[0])), [d0], method="Nelder-Mead",
                    options=dict(xatol=1e-5, initial_simplex=[[d0], [d0 + 0.003]]))
-    planes = ()
-    across = reflection(v, float(res.x[0]))
-    if judge.accepts(across):
-        m, t = across
-        group += [across] + [(m @ r, m @ s + t) for r, s in group]
-        planes = ((v, float(res.x[0])),)
-    return Symmetry(tuple(group), planes, (point, v))
+    offset = float(res.x[0])
+    if settings.mirror_by_profile and settings.profile_scales_m:
+        polished = _mirror_offset(judge.points, judge.normals, v, point, offset, settings.profile_scales_m[-1])
+        if judge.accepts(reflection(v, polished)):
+            offset = polished
+    across = reflection(v, offset)
+    if not judge.accepts(across):
+        return Symmetry(tuple(group), (), (point, v))
+    m, t = across
+    mirrored = [across] + [(m @ r, m @ s + t) for r, s in group]
+    planes = ((v, offset),)
+    feature = _feature_of_mirror(judge, v, point, offset, settings)
+    if feature is None:
+        return Symmetry(tuple(group + mirrored), planes, (point, v))
+    return Symmetry(tuple(group), planes, (point, v), body_transforms=tuple(mirrored),
+                    feature_points=judge.points[feature], feature_radius_m=settings.feature_radius_m)
+
+
+def _mirror_offset(points, normals, v, point, offset: float, scale_m: float, reach_m: float = 0.003) -> float:
+    """The offset ``d`` of the plane ``v . x = d`` across an axis of revolution (through ``point``
+    along ``v``) that maps the contacts' profile onto itself best, searched within ``reach_m`` of
+    ``offset`` (a 0.1 mm grid, then Brent's method about its best), metres; ``offset`` itself if
+    no offset searched fits better.
+
+    The images' soft score that finds the plane is flat within a millimetre, and a lemon's plane
+    0.6 mm off put its images 1.2 mm off at the tips (BENCHMARKS.md, "The mirror across an axis
+    leaves a stem out"); the profile, every contact at every azimuth, pins it."""
+    def misfit(d):
+        return _mean_huber(_mirrored_profile_residuals(points, normals, v, point, d), scale_m)
+
+    grid = offset + np.arange(-reach_m, reach_m + 1e-9, 1e-4)
+    best = float(grid[int(np.argmin([misfit(d) for d in grid]))])
+    found = minimize_scalar(misfit, bounds=(best - 1e-4, best + 1e-4), method="bounded", options=dict(xatol=1e-6))
+    candidate = float(found.x) if found.fun < misfit(best) else best
+    return candidate if misfit(candidate) < misfit(offset) else offset
+
+
+def _mirrored_profile_residuals(points, normals, v, point, offset: float) -> np.ndarray:
+    """(n,) each contact's profile point mirrored across the plane ``v . x = offset``: its distance
+    from the contacts' profile about the axis through ``point`` along ``v``, metres
+    (:func:`_profile_residuals`; NaN where fewer than three contacts are near)."""
+    profile, profile_normal = _profile(points, normals, v, point)
+    height = offset - v @ point
+    mirrored = np.column_stack([2.0 * height - profile[:, 0], profile[:, 1]])
+    return _profile_residuals(mirrored, profile_normal * [-1.0, 1.0], profile, profile_normal, 8, 0.008, False)
+
+
+def _feature_of_mirror(judge: _ImageJudge, v, point, offset: float, settings: SymmetrySettings) -> np.ndarray | None:
+    """(n,) bool: the contacts an accepted mirror across an axis of revolution must leave out, or
+    None if it holds for all of them.
+
+    An apple is nearly mirror-symmetric top to bottom but for its stem: the stem's few contacts
+    pass the acceptance's shares, and their images grow a phantom stem under the bottom (BENCHMARKS.md,
+    "The mirror across an axis leaves a stem out"). The feature is the contacts whose images the GPIS
+    puts deep in free space or solid (the judge's *free*), and those within ``feature_radius_m`` of
+    them, when at most ``max_feature_share`` of the contacts; None when there are none or more
+    (or ``max_feature_share`` is None)."""
+    if not settings.mirror_by_profile or settings.max_feature_share is None or judge.gpis is None:
+        return None
+    m, t = reflection(v, offset)
+    lo, hi = judge.gpis.region
+    q = np.clip(judge.points @ m.T + t, lo, hi)
+    mean = np.asarray(judge.gpis.mean(q), float)
+    std = np.sqrt(np.maximum(np.asarray(judge.gpis.variance(q), float), 0.0))
+    free = (np.abs(mean) > settings.plane_tolerance_m) & (np.abs(mean) > settings.free_confidence * std)
+    free |= _mirrored_profile_residuals(judge.points, judge.normals, v, point, offset) > settings.plane_tolerance_m
+    if not free.any():
+        return None
+    feature = Symmetry(feature_points=judge.points[free], feature_radius_m=settings.feature_radius_m).in_feature(judge.points)
+    return feature if feature.mean() <= settings.max_feature_share else None
 
 
 def _feature_of_revolution(judge: _ImageJudge, v, point, settings: SymmetrySettings) -> np.ndarray | None:

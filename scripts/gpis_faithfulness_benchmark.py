@@ -138,9 +138,13 @@ MESH_OPTIONS["symmetry"] = {"symmetry": True}
 MESH_OPTIONS["symmetry-uncut"] = {"symmetry": True, "cut_at_faces": False}
 #: The symmetry found with other settings (``find_symmetry(..., settings)``): without a feature left out
 #: of an axis of revolution (a mug's handle; the search before it), without the axis polished by its
-#: profile (the search before it).
+#: profile (the search before it: no axis polished, refused or accepted), without a refused axis
+#: rescued by its profile (the search before that), with the mirror across an axis placed by the
+#: images' score and holding for every contact (before it was placed by the profile).
 SYMMETRY_SETTINGS = {"symmetry-no-feature": SymmetrySettings(max_feature_share=None),
-                     "symmetry-unpolished": SymmetrySettings(profile_scales_m=())}
+                     "symmetry-unpolished": SymmetrySettings(profile_scales_m=()),
+                     "symmetry-unrescued": SymmetrySettings(rescue_starts=None),
+                     "symmetry-mirror-by-score": SymmetrySettings(mirror_by_profile=False)}
 METHODS.update({name: _current_default for name in SYMMETRY_SETTINGS})
 MESH_OPTIONS.update({name: {"outside_evidence": False} for name in EVIDENCE_VARIANTS})  # rows already added
 

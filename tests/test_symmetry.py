@@ -19,7 +19,9 @@ from objects.proximity import MeshProximity
 from objects.sampling import sample_surface
 from reconstruction.gpis import GPIS
 from reconstruction.metrics import surface_error
-from reconstruction.symmetry import (Symmetry, SymmetrySettings, _ImageJudge, _polish_axis, contradicted_images,
+from reconstruction.symmetry import (Symmetry, SymmetrySettings, _feature_of_mirror, _ImageJudge, _fit_axis,
+                                     _mirror_offset, _mirrored_profile_residuals, _polish_axis, _rescue_axis,
+                                     _turns_accepted, contradicted_images,
                                      disputed_contacts, find_symmetry, profile_misfit, reflection, rotation)
 from reconstruction.synthetic_contacts import ContactNoise, sample_contacts
 
@@ -680,3 +682,77 @@ def test_an_accepted_axis_is_the_polished_one():
         assert found.kind == "revolution"
         tilt[name] = np.degrees(np.arccos(min(1.0, abs(found.axis[1][2]))))
     assert tilt["polished"] < min(0.5, tilt["refined"] / 2)
+
+
+def test_a_plates_refused_axis_is_rescued_by_its_profile():
+    # The tuning plate (axis z through the origin), 100 contacts: an axis 4 deg off is refused by
+    # its turns' images (the rim moves by several millimetres); polished from it and from starts
+    # tilted about it, the profile finds an axis the turns accept, within half a degree of z.
+    plate = objects.load("generated:plate/0").mesh
+    points, normals, _, _ = sample_contacts(plate, 100, seed=102, pool=4000)
+    gpis = GPIS(bounds=_bounds(plate)).fit(points, normals)
+    settings = SymmetrySettings()
+    judge = _ImageJudge(gpis.contact_points, gpis.contact_normals, gpis, settings)
+    z = np.array([0.0, 0.0, 1.0])
+    start, start_point = _tilted(z, 4.0, [0.6, 0.8, 0.0]), np.array([0.001, 0.002, 0.0])
+    assert not _turns_accepted(judge, start, start_point)
+    direction, point = _rescue_axis(judge, start, start_point, settings)
+    assert _turns_accepted(judge, direction, point)
+    assert np.degrees(np.arccos(min(1.0, abs(direction @ z)))) < 0.5
+    assert np.linalg.norm(point - (point @ direction) * direction) < 1e-3
+    assert _rescue_axis(judge, start, start_point, replace(settings, rescue_starts=None)) is None
+
+
+def test_no_axis_is_rescued_on_a_body_without_one():
+    # A chamfered box and an L-shaped tool have no axis of revolution: whatever axis their normals
+    # fit best, no polish of it makes the turns' images pass.
+    for name in ("generated:chamfered_box/0", "generated:l_tool/0"):
+        mesh = objects.load(name).mesh
+        points, normals, _, _ = sample_contacts(mesh, 150, seed=100, pool=4000)
+        gpis = GPIS(bounds=_bounds(mesh)).fit(points, normals)
+        judge = _ImageJudge(gpis.contact_points, gpis.contact_normals, gpis, SymmetrySettings())
+        direction, point = _fit_axis(judge.points, judge.normals)
+        assert _rescue_axis(judge, direction, point, SymmetrySettings()) is None, name
+
+
+def test_the_mirror_across_an_axis_is_placed_where_the_profile_maps_onto_itself():
+    # A spheroid along z (semi-axes 30 and 45 mm), its middle at z = 12 mm: exact contacts (no
+    # noise) map onto its profile across z = 12 mm (residuals of micrometres, the facets'), not
+    # across 1.5 mm above it, and a start there is moved to within a tenth of a millimetre.
+    spheroid = trimesh.creation.icosphere(subdivisions=5, radius=0.03)
+    spheroid.apply_scale([1.0, 1.0, 1.5])
+    spheroid.apply_translation([0.0, 0.0, 0.012])
+    noiseless = ContactNoise(normal_std_m=0.0, tangent_std_m=0.0, normal_error_mean_deg=0.0)
+    points, normals, _, _ = sample_contacts(spheroid, 200, noise=noiseless, seed=4)
+    z, origin = np.array([0.0, 0.0, 1.0]), np.zeros(3)
+    assert np.nanmedian(_mirrored_profile_residuals(points, normals, z, origin, 0.012)) < 1e-4
+    assert np.nanmedian(_mirrored_profile_residuals(points, normals, z, origin, 0.0135)) > 1e-3
+    assert abs(_mirror_offset(points, normals, z, origin, 0.0135, 5e-4) - 0.012) < 1e-4
+
+
+def _stemmed_sphere():
+    """A sphere of 30 mm radius about the origin with a stem 3 mm thick standing 20 mm out of its top."""
+    sphere = trimesh.creation.icosphere(subdivisions=5, radius=0.03)
+    stem = trimesh.creation.cylinder(radius=0.003, height=0.03, sections=48)
+    stem.apply_translation([0.0, 0.0, 0.035])
+    return trimesh.boolean.union([sphere, stem], engine="manifold")
+
+
+def test_the_mirror_across_an_axis_leaves_a_stem_out():
+    # Mirror-symmetric across its equator z = 0 but for the stem: the stem's contacts mirrored
+    # land in the free space under the sphere. They are left out of the mirror, and no contact of
+    # the lower half is; the plain sphere leaves nothing out.
+    settings = SymmetrySettings()
+    z, origin = np.array([0.0, 0.0, 1.0]), np.zeros(3)
+    for body, stemmed in ((_stemmed_sphere(), True), (trimesh.creation.icosphere(subdivisions=5, radius=0.03), False)):
+        points, normals, _, _ = sample_contacts(body, 300, seed=3)
+        gpis = GPIS(bounds=_bounds(body)).fit(points, normals)
+        judge = _ImageJudge(gpis.contact_points, normals / np.linalg.norm(normals, axis=1, keepdims=True), gpis, settings)
+        feature = _feature_of_mirror(judge, z, origin, 0.0, settings)
+        if not stemmed:
+            assert feature is None
+            continue
+        on_stem = judge.points[:, 2] > 0.031
+        assert on_stem.sum() >= 3 and feature[on_stem].all()
+        assert not feature[judge.points[:, 2] < 0.0].any()
+        assert _feature_of_mirror(judge, z, origin, 0.0, replace(settings, mirror_by_profile=False)) is None
