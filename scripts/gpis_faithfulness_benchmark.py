@@ -398,10 +398,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--objects", default=None, help="comma-separated names instead of --set")
     parser.add_argument("--resolution", type=int, default=96, help="meshing samples per side")
     parser.add_argument("--samples", type=int, default=10000, help="surface samples per direction")
+    parser.add_argument("--threads", type=int, default=1,
+                        help="torch threads, >= 1 (default 1: the symmetry search turns the BLAS's last bits, "
+                             "which change with the thread count, into another axis; compare runs at one setting)")
     parser.add_argument("--out", type=Path, default=None,
                         help="directory for results.jsonl (re-used), tables.md and error_vs_contacts.png")
     args = parser.parse_args(argv)
 
+    if args.threads < 1:
+        parser.error(f"--threads must be at least 1, got {args.threads}")
+    import torch
+
+    torch.set_num_threads(args.threads)
     methods = args.methods.split(",")
     for m in methods:
         if m not in METHODS:
@@ -421,6 +429,7 @@ def main(argv: list[str] | None = None) -> int:
     nested = not args.independent_draws
     text = [f"Machine: {platform.machine()}, python {platform.python_version()}; "
             f"draws {draws} ({'nested' if nested else 'independent'}), resolution {args.resolution}, "
+            f"torch threads {args.threads}, "
             f"{args.samples} samples per direction"]
     for which in sets:
         names = args.objects.split(",") if args.objects else object_names(which, args.quick)

@@ -11,7 +11,7 @@ def test_tiny_run_writes_tables_results_and_figure(tmp_path, capsys):
             "--samples", "500", "--methods", "default", "--out", str(tmp_path)]
     assert bench.main(args) == 0
     out = capsys.readouterr().out
-    assert "| sphere |" in out and "worse with more contacts" in out
+    assert "| sphere |" in out and "worse with more contacts" in out and "torch threads 1" in out
     rows = [json.loads(line) for line in (tmp_path / "results.jsonl").read_text().splitlines()]
     assert len(rows) == 2
     for r in rows:
@@ -35,7 +35,7 @@ def test_compare_scores_a_mesh_against_itself_as_perfect():
     assert 0.5 < m["chamfer_mm"] < 3.0 and m["p99_mm"] <= 3.0 + 1e-6 and m["f1"] < 1.0
 
 
-@pytest.mark.parametrize("bad", [["--methods", "nope"], ["--contacts", "a,b"]])
+@pytest.mark.parametrize("bad", [["--methods", "nope"], ["--contacts", "a,b"], ["--threads", "0"]])
 def test_bad_arguments_exit_with_usage_error(bad, capsys):
     with pytest.raises(SystemExit) as exc:
         bench.main(bad)
