@@ -344,12 +344,12 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
         rescued = _rescue_axis(judge, direction, point, settings)
         if rescued is None:
             through_axis, typical_free = _planes_through_axis(judge, direction, point, settings)
-        if rescued is None and typical_free > settings.max_free:
-            # A feature refused the axis (the planes through it put its images in free space): a
-            # plane through the axis is its mirror only if it halves that share (a plane 10 deg off
-            # a mug's handle still passes max_free), and the axis may hold for the rest.
-            judge.feature_axis = (direction, point, 0.5 * typical_free)
-            feature = _feature_of_revolution(judge, direction, point, settings)
+            if typical_free > settings.max_free:
+                # A feature refused the axis (the planes through it put its images in free space):
+                # a plane through the axis is its mirror only if it halves that share (a plane 10
+                # deg off a mug's handle still passes max_free), and the axis may hold for the rest.
+                judge.feature_axis = (direction, point, 0.5 * typical_free)
+                feature = _feature_of_revolution(judge, direction, point, settings)
 
     planes = _mirror_planes(judge, centre, settings, through_axis)
     if len(planes) >= 2:
@@ -518,10 +518,12 @@ class _ImageJudge:
             return False
         return bool(mannwhitneyu(images, contacts, alternative="greater").pvalue < s.prediction_significance)
 
-    def _deep(self, mean: np.ndarray, std: np.ndarray) -> np.ndarray:
+    def _deep(self, mean: np.ndarray, std: np.ndarray, depth_m: float | None = None) -> np.ndarray:
         """(n,) bool: the GPIS mean puts these points (an image, or a contact left out) in free
-        space or solid, deeper than ``free_depth_m`` and ``free_confidence`` posterior stds."""
-        return (np.abs(mean) > self.s.free_depth_m) & (np.abs(mean) > self.s.free_confidence * std)
+        space or solid, deeper than ``depth_m`` (default ``free_depth_m``) and ``free_confidence``
+        posterior stds."""
+        depth = self.s.free_depth_m if depth_m is None else depth_m
+        return (np.abs(mean) > depth) & (np.abs(mean) > self.s.free_confidence * std)
 
     def _residuals(self, transform: Transform, neighbours: int = 4, across_bisector: bool = False):
         """(n, 3) the images, (n,) distance of each image to the plane of the best agreeing contact
@@ -557,14 +559,15 @@ class _ImageJudge:
         facet = np.argmax(signed, axis=1)
         return signed[np.arange(len(q)), facet], facet
 
-    def _in_free_space(self, q: np.ndarray) -> np.ndarray:
-        """(n,) bool: the GPIS mean puts these points deep in free space or solid (:meth:`_deep`;
-        the variance only where the mean is deep enough)."""
+    def _in_free_space(self, q: np.ndarray, depth_m: float | None = None) -> np.ndarray:
+        """(n,) bool: the GPIS mean puts these points deep in free space or solid (:meth:`_deep`,
+        ``depth_m`` instead of ``free_depth_m`` if given; the variance only where the mean is deep
+        enough)."""
         mean = np.asarray(self.gpis.mean(q), float)
-        deep = np.abs(mean) > self.s.free_depth_m
+        deep = np.abs(mean) > (self.s.free_depth_m if depth_m is None else depth_m)
         if deep.any():
             std = np.sqrt(np.maximum(np.asarray(self.gpis.variance(q[deep]), float), 0.0))
-            deep[deep] = self._deep(mean[deep], std)
+            deep[deep] = self._deep(mean[deep], std, depth_m)
         return deep
 
     def soft_score(self, transform: Transform, tolerance_m: float | None = None) -> float:
@@ -937,15 +940,15 @@ def _revolution(judge: _ImageJudge, v, point, centre, settings: SymmetrySettings
     d0 = float(v @ centre)
     res = minimize(lambda x: -judge.soft_score(reflection(v, x[0])), [d0], method="Nelder-Mead",
                    options=dict(xatol=1e-5, initial_simplex=[[d0], [d0 + 0.003]]))
-    offset = float(res.x[0])
+    offsets = [float(res.x[0])]
     if settings.mirror_by_profile and settings.profile_scales_m:
-        polished = _mirror_offset(judge.points, judge.normals, v, point, offset, settings.profile_scales_m[-1])
-        if judge.accepts(reflection(v, polished)):
-            offset = polished
-    across = reflection(v, offset)
-    if not judge.accepts(across):
+        polished = _mirror_offset(judge.points, judge.normals, v, point, offsets[0], settings.profile_scales_m[-1])
+        if polished != offsets[0]:
+            offsets.insert(0, polished)  # the profile's offset if accepted, else the score's
+    offset = next((d for d in offsets if judge.accepts(reflection(v, d))), None)
+    if offset is None:
         return Symmetry(tuple(group), (), (point, v))
-    m, t = across
+    m, t = across = reflection(v, offset)
     mirrored = [across] + [(m @ r, m @ s + t) for r, s in group]
     planes = ((v, offset),)
     feature = _feature_of_mirror(judge, v, point, offset, settings)
@@ -962,8 +965,9 @@ def _mirror_offset(points, normals, v, point, offset: float, scale_m: float, rea
     no offset searched fits better.
 
     The images' soft score that finds the plane is flat within a millimetre, and a lemon's plane
-    0.6 mm off put its images 1.2 mm off at the tips (BENCHMARKS.md, "The mirror across an axis
-    leaves a stem out"); the profile, every contact at every azimuth, pins it."""
+    0.6 mm off put its images 1.2 mm off at the tips (BENCHMARKS.md, "A refused axis rescued by
+    its profile, and the mirror across an axis that leaves a stem out"); the profile, every
+    contact at every azimuth, pins it."""
     def misfit(d):
         return _mean_huber(_mirrored_profile_residuals(points, normals, v, point, d), scale_m)
 
@@ -989,19 +993,19 @@ def _feature_of_mirror(judge: _ImageJudge, v, point, offset: float, settings: Sy
     None if it holds for all of them.
 
     An apple is nearly mirror-symmetric top to bottom but for its stem: the stem's few contacts
-    pass the acceptance's shares, and their images grow a phantom stem under the bottom (BENCHMARKS.md,
-    "The mirror across an axis leaves a stem out"). The feature is the contacts whose images the GPIS
-    puts deep in free space or solid (the judge's *free*), and those within ``feature_radius_m`` of
-    them, when at most ``max_feature_share`` of the contacts; None when there are none or more
-    (or ``max_feature_share`` is None)."""
+    pass the acceptance's shares, and their images grow a phantom stem under the bottom
+    (BENCHMARKS.md, "A refused axis rescued by its profile, and the mirror across an axis that
+    leaves a stem out"). The feature is the contacts whose mirrored profile points lie more than
+    ``plane_tolerance_m`` off the profile or whose images the GPIS puts that deep in free space or
+    solid (and ``free_confidence`` standard deviations; the judge's *free* asks ``free_depth_m``,
+    which a stem's root mirrored just under the bottom does not reach), and those within
+    ``feature_radius_m`` of them, when at most ``max_feature_share`` of the contacts; None when
+    there are none or more (or ``max_feature_share`` is None, or ``mirror_by_profile`` False)."""
     if not settings.mirror_by_profile or settings.max_feature_share is None or judge.gpis is None:
         return None
     m, t = reflection(v, offset)
     lo, hi = judge.gpis.region
-    q = np.clip(judge.points @ m.T + t, lo, hi)
-    mean = np.asarray(judge.gpis.mean(q), float)
-    std = np.sqrt(np.maximum(np.asarray(judge.gpis.variance(q), float), 0.0))
-    free = (np.abs(mean) > settings.plane_tolerance_m) & (np.abs(mean) > settings.free_confidence * std)
+    free = judge._in_free_space(np.clip(judge.points @ m.T + t, lo, hi), depth_m=settings.plane_tolerance_m)
     free |= _mirrored_profile_residuals(judge.points, judge.normals, v, point, offset) > settings.plane_tolerance_m
     if not free.any():
         return None
