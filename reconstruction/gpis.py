@@ -76,18 +76,27 @@ class GPIS:
         Fixes ``R`` and is the default meshing region; contacts outside it are rejected. Without it,
         the region is the contacts' bounding box padded by 25 % per side, and ``R`` grows (with a
         full refit and a warning) if later contacts leave it.
+    image_kernel : str or Kernel or None
+        The kernel of the copy that observes a symmetry's images (``mesh(symmetry=...)``): a
+        registered name (its default for this GPIS's region) or a :class:`Kernel`; None: this
+        GPIS's own. The default, ``"matern32"`` (length a quarter of the region diagonal), was
+        chosen on the generated tuning set (BENCHMARKS.md, "The images' kernel"): the thin plate's
+        ``R`` spans the workspace, and where the images stand 3 mm apart its field rings between
+        them, so a thin wall came out thinner with 400 contacts than with 200.
     """
 
     def __init__(self, kernel: str | Kernel = "thin_plate", noise: float = 5e-4,
                  normal_noise: float = 0.2, use_normals: bool = True,
                  bounds: Sequence[Sequence[float]] | None = None, trend: float | None = 3.0,
                  opposing_normal_noise: float | None = 0.05, opposing_radius_m: float = 0.015,
-                 opposing_overrides_floor: bool = False, opposing_gradient_gain: float = 1.0):
-        if isinstance(kernel, str) and kernel not in kernel_names():
-            raise ValueError(f"unknown kernel {kernel!r}; choose one of {', '.join(kernel_names())} "
-                             "or pass a Kernel instance")
-        if not isinstance(kernel, (str, Kernel)):
-            raise ValueError(f"kernel must be a name or a Kernel instance, got {type(kernel).__name__}")
+                 opposing_overrides_floor: bool = False, opposing_gradient_gain: float = 1.0,
+                 image_kernel: str | Kernel | None = "matern32"):
+        for name, value in (("kernel", kernel), ("image_kernel", image_kernel)):
+            if isinstance(value, str) and value not in kernel_names():
+                raise ValueError(f"unknown {name} {value!r}; choose one of {', '.join(kernel_names())} "
+                                 "or pass a Kernel instance")
+            if not isinstance(value, (str, Kernel)) and not (name == "image_kernel" and value is None):
+                raise ValueError(f"{name} must be a name or a Kernel instance, got {type(value).__name__}")
         for name, value in (("noise", noise), ("normal_noise", normal_noise)):
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive finite standard deviation, got {value!r}")
@@ -108,6 +117,7 @@ class GPIS:
         self.trend_spec = None if trend is None else float(trend)
         self.trend: QuadraticTrend | None = None
         self.kernel_spec = kernel
+        self.image_kernel = image_kernel
         self.noise = float(noise)
         self.normal_noise = float(normal_noise)
         self.use_normals = bool(use_normals)
@@ -211,7 +221,7 @@ class GPIS:
                     use_normals=self.use_normals, bounds=self.bounds, trend=self.trend_spec,
                     opposing_normal_noise=self.opposing_normal_noise, opposing_radius_m=self.opposing_radius_m,
                     opposing_overrides_floor=self.opposing_overrides_floor,
-                    opposing_gradient_gain=self.opposing_gradient_gain)
+                    opposing_gradient_gain=self.opposing_gradient_gain, image_kernel=self.image_kernel)
 
     @property
     def n_contacts(self) -> int:
@@ -509,9 +519,12 @@ class GPIS:
         return model, disputed
 
     def _observing(self, images: np.ndarray, image_normals: np.ndarray) -> "GPIS":
-        """A copy that also observes ``images`` as contacts; this GPIS if that is not positive definite."""
+        """A copy that also observes ``images`` as contacts, under ``image_kernel``; this GPIS if
+        that is not positive definite."""
         model = copy.deepcopy(self)
         try:
+            if self.image_kernel is not None:
+                model._refactor_with(self._image_kernel())
             model.add(images, image_normals)
         except NotPositiveDefiniteError as exc:
             warnings.warn(f"the symmetric images were left out of the mesh: {exc}")
@@ -519,6 +532,26 @@ class GPIS:
         return model
 
     # ------------------------------------------------------------------ internals
+    def _image_kernel(self) -> Kernel:
+        if isinstance(self.image_kernel, Kernel):
+            return self.image_kernel
+        lo, hi = self._region
+        points = self._obs_points
+        return make_kernel(self.image_kernel, float(np.linalg.norm(hi - lo)),
+                           float(np.linalg.norm(points.max(0) - points.min(0))))
+
+    def _refactor_with(self, kernel: Kernel) -> None:
+        """Use ``kernel`` for every observation row from now on, refactored (O(rows^3)); on
+        failure the GPIS is left as it was."""
+        old = self.kernel, self.kernel_spec
+        try:
+            with self._restored_on_failure():
+                self.kernel = self.kernel_spec = kernel
+                self._factor_all()
+        except BaseException:
+            self.kernel, self.kernel_spec = old
+            raise
+
     def _joint(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """(m, 4, n, 4) prior covariance of ``[f, grad f]``: kernel plus trend."""
         cov = self.kernel.joint_covariance(x, y)

@@ -136,6 +136,10 @@ METHODS.update({name: _current_default for name in EVIDENCE_VARIANTS})
 METHODS["symmetry"] = METHODS["symmetry-uncut"] = _current_default
 MESH_OPTIONS["symmetry"] = {"symmetry": True}
 MESH_OPTIONS["symmetry-uncut"] = {"symmetry": True, "cut_at_faces": False}
+#: ... with the images observed under the GPIS's own thin-plate kernel (``image_kernel=None``: the
+#: mesh before the Matern-3/2 image kernel).
+METHODS["symmetry-thin-plate-images"] = _Configured(image_kernel=None)
+MESH_OPTIONS["symmetry-thin-plate-images"] = {"symmetry": True}
 #: The symmetry found with other settings (``find_symmetry(..., settings)``): without a feature left out
 #: of an axis of revolution (a mug's handle; the search before it), without the axis polished by its
 #: profile (the search before it: no axis polished, refused or accepted), without a refused axis
