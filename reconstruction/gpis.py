@@ -506,7 +506,14 @@ class GPIS:
         if used.any():
             used[used] = ~contradicted_images(self, images[used], settings)
         disputed = np.zeros(len(points), bool)
-        model = self._observing(images[used], image_normals[used]) if used.any() else self
+        if not used.any():
+            return self, disputed
+        try:
+            base = self._under_image_kernel()  # once for every re-judged set of images
+        except NotPositiveDefiniteError as exc:
+            warnings.warn(f"the symmetric images were left out of the mesh: {exc}")
+            return self, disputed
+        model = self._observing(images[used], image_normals[used], base)
         for _ in range(settings.dispute_rounds):
             if model is self:
                 break
@@ -515,20 +522,29 @@ class GPIS:
             if not dropped.any():
                 break
             used &= ~dropped
-            model = self._observing(images[used], image_normals[used]) if used.any() else self
+            model = self._observing(images[used], image_normals[used], base) if used.any() else self
         return model, disputed
 
-    def _observing(self, images: np.ndarray, image_normals: np.ndarray) -> "GPIS":
-        """A copy that also observes ``images`` as contacts, under ``image_kernel``; this GPIS if
-        that is not positive definite."""
-        model = copy.deepcopy(self)
+    def _observing(self, images: np.ndarray, image_normals: np.ndarray, base: "GPIS | None" = None) -> "GPIS":
+        """A copy of ``base`` (default: :meth:`_under_image_kernel`) that also observes ``images`` as
+        contacts; this GPIS if that is not positive definite."""
         try:
-            if self.image_kernel is not None:
-                model._refactor_with(self._image_kernel())
+            base = self._under_image_kernel() if base is None else base
+            model = copy.deepcopy(base, {id(base.kernel): base.kernel})  # a kernel is only parameters: shared
             model.add(images, image_normals)
         except NotPositiveDefiniteError as exc:
             warnings.warn(f"the symmetric images were left out of the mesh: {exc}")
             return self
+        return model
+
+    def _under_image_kernel(self) -> "GPIS":
+        """This GPIS, or with an ``image_kernel`` a copy of it refactored under that kernel
+        (every row as it is, O(rows^3)): the base that observes a symmetry's images."""
+        if self.image_kernel is None:
+            return self
+        model = copy.deepcopy(self)
+        model.kernel = model.kernel_spec = self._image_kernel()
+        model._factor_all()
         return model
 
     # ------------------------------------------------------------------ internals
@@ -539,18 +555,6 @@ class GPIS:
         points = self._obs_points
         return make_kernel(self.image_kernel, float(np.linalg.norm(hi - lo)),
                            float(np.linalg.norm(points.max(0) - points.min(0))))
-
-    def _refactor_with(self, kernel: Kernel) -> None:
-        """Use ``kernel`` for every observation row from now on, refactored (O(rows^3)); on
-        failure the GPIS is left as it was."""
-        old = self.kernel, self.kernel_spec
-        try:
-            with self._restored_on_failure():
-                self.kernel = self.kernel_spec = kernel
-                self._factor_all()
-        except BaseException:
-            self.kernel, self.kernel_spec = old
-            raise
 
     def _joint(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """(m, 4, n, 4) prior covariance of ``[f, grad f]``: kernel plus trend."""
