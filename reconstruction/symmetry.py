@@ -203,6 +203,11 @@ class SymmetrySettings:
     mirror_by_profile: bool = True
     polish_planes_axis: str | None = "planes"
 
+    def __post_init__(self):
+        if self.polish_planes_axis not in ("planes", "revolution", None):
+            raise ValueError(f"SymmetrySettings.polish_planes_axis must be 'planes', 'revolution' or None, "
+                             f"got {self.polish_planes_axis!r}")
+
 
 @dataclass(frozen=True)
 class Symmetry:
@@ -365,9 +370,9 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
             if rescued is not None and _thinner(judge, rescued, (v, crossing), settings):
                 return _revolution(judge, *rescued, centre, settings)
             polished = _polish_planes_axis(judge, v, crossing, settings)
-            if polished is not None and settings.polish_planes_axis == "revolution":
-                return _revolution(judge, *polished, centre, settings)
             if polished is not None:
+                if settings.polish_planes_axis == "revolution":
+                    return _revolution(judge, *polished, centre, settings)
                 planes = [_replaced(u, d, v, crossing, *polished) for u, d in planes]
                 v, crossing = polished
             turns = _turns(v, crossing, settings)

@@ -684,6 +684,20 @@ def test_an_accepted_axis_is_the_polished_one():
     assert tilt["polished"] < min(0.5, tilt["refined"] / 2)
 
 
+def _judge_of_sampled(name, n_contacts, seed, settings):
+    """The image judge of ``n_contacts`` contacts sampled on a generated object as the faithfulness
+    benchmark draws them (nested pool), with their default GPIS."""
+    mesh = objects.load(name).mesh
+    points, normals, _, _ = sample_contacts(mesh, n_contacts, seed=seed, pool=4000)
+    gpis = GPIS(bounds=_bounds(mesh)).fit(points, normals)
+    return _ImageJudge(gpis.contact_points, gpis.contact_normals, gpis, settings)
+
+
+def test_symmetry_settings_name_a_bad_planes_axis_option():
+    with pytest.raises(ValueError, match="polish_planes_axis"):
+        SymmetrySettings(polish_planes_axis="revolutoin")
+
+
 def test_mirror_planes_move_with_their_axis_onto_the_polished_one():
     # Closed form: a plane through the old axis z comes to contain the new, tilted axis; a plane
     # across z (z = 0.01) comes to be perpendicular to the new axis through the old axis's point
@@ -705,11 +719,8 @@ def test_a_mirror_planes_crossing_axis_is_polished_by_its_profile():
     # the one two mirror planes cross in can be 1.4 deg and 1.2 mm off (BENCHMARKS.md, "The mirror
     # planes' axis polished by its profile"); from such a start the polish lands within half a
     # degree and a millimetre, on a thinner profile, and the turns about it pass.
-    bowl = objects.load("generated:bowl/0").mesh
-    points, normals, _, _ = sample_contacts(bowl, 200, seed=100, pool=4000)
-    gpis = GPIS(bounds=_bounds(bowl)).fit(points, normals)
     settings = SymmetrySettings()
-    judge = _ImageJudge(gpis.contact_points, gpis.contact_normals, gpis, settings)
+    judge = _judge_of_sampled("generated:bowl/0", 200, 100, settings)
     z = np.array([0.0, 0.0, 1.0])
     start, start_point = _tilted(z, 1.4, [0.8, -0.6, 0.0]), np.array([0.0012, 0.0, 0.0])
     direction, point = _polish_planes_axis(judge, start, start_point, settings)
@@ -726,11 +737,8 @@ def test_a_plates_refused_axis_is_rescued_by_its_profile():
     # The tuning plate (axis z through the origin), 100 contacts: an axis 4 deg off is refused by
     # its turns' images (the rim moves by several millimetres); polished from it and from starts
     # tilted about it, the profile finds an axis the turns accept, within half a degree of z.
-    plate = objects.load("generated:plate/0").mesh
-    points, normals, _, _ = sample_contacts(plate, 100, seed=102, pool=4000)
-    gpis = GPIS(bounds=_bounds(plate)).fit(points, normals)
     settings = SymmetrySettings()
-    judge = _ImageJudge(gpis.contact_points, gpis.contact_normals, gpis, settings)
+    judge = _judge_of_sampled("generated:plate/0", 100, 102, settings)
     z = np.array([0.0, 0.0, 1.0])
     start, start_point = _tilted(z, 4.0, [0.6, 0.8, 0.0]), np.array([0.001, 0.002, 0.0])
     assert not _turns_accepted(judge, start, start_point)
