@@ -500,7 +500,14 @@ class GPIS:
 
         settings = SymmetrySettings()
         points, normals = self.contact_points, self.contact_normals
-        images, image_normals, sources = found.images(points, normals, settings, return_sources=True)
+        priority = None
+        if found.rank_images:
+            # Keep the copy of the contact the others predict best, in their own standard
+            # deviations (off by default: no better on the tuning split, see SymmetrySettings).
+            mean, std = self.leave_one_out()
+            priority = np.abs(mean) / np.maximum(std, 1e-9)
+        images, image_normals, sources = found.images(points, normals, settings, return_sources=True,
+                                                      priority=priority)
         lo, hi = self.region
         used = np.all((images > lo) & (images < hi), axis=1)
         if used.any():

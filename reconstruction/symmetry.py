@@ -96,7 +96,7 @@ points and must say no on an object that is not symmetric.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -132,7 +132,10 @@ class SymmetrySettings:
     planes through a refused axis of revolution refined first; ``search_grid``: points per axis
     of the GPIS mean the search interpolates; ``rotations``: turns about an axis of revolution
     (360 / rotations apart); ``min_image_gap_m`` / ``max_images``: images kept
-    (:meth:`Symmetry.images`); ``min_contacts``: fewer contacts say nothing;
+    (:meth:`Symmetry.images`), and ``rank_images``: where images compete for a place, the GPIS
+    keeps the copy of the contact its other observations predict best (its left-out value in
+    their standard deviations; False, the default: the transforms' order decides; ranked was
+    worse on the tuning split, BENCHMARKS.md "Competing images ranked by their contacts"); ``min_contacts``: fewer contacts say nothing;
     ``face_match_radius_m`` / ``face_conflict_rad``: how near a face's mapped centre must lie to
     another face's centre to be compared, and by how much more than both faces' tilt and curvature
     allowances their normals may not differ (:meth:`_ImageJudge.face_conflicts`), for faces at least
@@ -185,6 +188,7 @@ class SymmetrySettings:
     rotations: int = 8
     min_image_gap_m: float = 3e-3
     max_images: int = 1000
+    rank_images: bool = False
     min_contacts: int = 20
     face_match_radius_m: float = 5e-3
     face_min_width_m: float = 0.010
@@ -231,6 +235,9 @@ class Symmetry:
         The contacts the body's transforms leave out, object frame, metres.
     feature_radius_m : float
         How near a feature contact a point counts as part of the feature, metres.
+    rank_images : bool
+        Whether the GPIS that observes the images ranks competing images by their contacts'
+        agreement (``SymmetrySettings.rank_images`` of the search that found this).
     """
 
     transforms: tuple[Transform, ...] = ()
@@ -239,6 +246,7 @@ class Symmetry:
     body_transforms: tuple[Transform, ...] = ()
     feature_points: np.ndarray | None = None
     feature_radius_m: float = SymmetrySettings.feature_radius_m
+    rank_images: bool = SymmetrySettings.rank_images
 
     @property
     def kind(self) -> str:
@@ -249,7 +257,8 @@ class Symmetry:
         return "mirror" if self.planes else "none"
 
     def images(self, points: np.ndarray, normals: np.ndarray,
-               settings: SymmetrySettings = SymmetrySettings(), return_sources: bool = False):
+               settings: SymmetrySettings = SymmetrySettings(), return_sources: bool = False,
+               priority: np.ndarray | None = None):
         """Images of the contacts under every transform (and of those off the feature under the body's
         turns, where they land off it), away from the contacts and each other.
 
@@ -258,6 +267,12 @@ class Symmetry:
         points : (n, 3) float, object frame, metres; normals : (n, 3) float, outward unit normals.
         return_sources : bool
             Also return which contact each image copies.
+        priority : (n,) float, optional
+            Where images compete for a place (within ``min_image_gap_m`` of each other), the copy
+            of the contact with the lower priority is kept (a stable order: ties keep the
+            transforms' order); None: the transforms' order decides. The GPIS passes how far the
+            other observations put each contact off the surface, in their posterior standard
+            deviations (:meth:`GPIS.leave_one_out`).
 
         Returns
         -------
@@ -281,6 +296,13 @@ class Symmetry:
         all_points = np.vstack([points] + [points @ m.T + t for m, t in self.transforms] + turned)
         all_normals = np.vstack([normals] + [normals @ m.T for m, _ in self.transforms] + turned_normals)
         all_sources = np.concatenate([np.tile(np.arange(len(points)), 1 + len(self.transforms))] + turned_sources)
+        if priority is not None:
+            priority = np.asarray(priority, float)
+            if priority.shape != (len(points),):
+                raise ValueError(f"priority must be one value per contact, shape ({len(points)},), got {priority.shape}")
+            order = np.concatenate([np.arange(len(points)),
+                                    len(points) + np.argsort(priority[all_sources[len(points):]], kind="stable")])
+            all_points, all_normals, all_sources = all_points[order], all_normals[order], all_sources[order]
         tree = cKDTree(all_points)
         taken = np.zeros(len(all_points), bool)
         taken[:len(points)] = True
@@ -330,6 +352,11 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
         The contacts' GPIS: an image its mean puts deep in free space or in solid counts against a
         candidate (without it, only the contacts and their hull judge).
     """
+    found = _find_symmetry(points, normals, gpis, settings)
+    return found if found.rank_images == settings.rank_images else replace(found, rank_images=settings.rank_images)
+
+
+def _find_symmetry(points, normals, gpis, settings: SymmetrySettings) -> Symmetry:
     points, normals = np.asarray(points, float), np.asarray(normals, float)
     if len(points) < settings.min_contacts:
         return Symmetry()
