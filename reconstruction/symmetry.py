@@ -135,7 +135,8 @@ class SymmetrySettings:
     (:meth:`Symmetry.images`), and ``rank_images``: where images compete for a place, the GPIS
     keeps the copy of the contact its other observations predict best (its left-out value in
     their standard deviations; False, the default: the transforms' order decides; ranked was
-    worse on the tuning split, BENCHMARKS.md "Competing images ranked by their contacts"); ``min_contacts``: fewer contacts say nothing;
+    worse on the tuning split, BENCHMARKS.md "Competing images ranked by their contacts");
+    ``min_contacts``: fewer contacts say nothing;
     ``face_match_radius_m`` / ``face_conflict_rad``: how near a face's mapped centre must lie to
     another face's centre to be compared, and by how much more than both faces' tilt and curvature
     allowances their normals may not differ (:meth:`_ImageJudge.face_conflicts`), for faces at least
@@ -353,7 +354,7 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
         candidate (without it, only the contacts and their hull judge).
     """
     found = _find_symmetry(points, normals, gpis, settings)
-    return found if found.rank_images == settings.rank_images else replace(found, rank_images=settings.rank_images)
+    return replace(found, rank_images=settings.rank_images)
 
 
 def _find_symmetry(points, normals, gpis, settings: SymmetrySettings) -> Symmetry:
