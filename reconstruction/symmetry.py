@@ -136,6 +136,7 @@ class SymmetrySettings:
     keeps the copy of the contact its other observations predict best (its left-out value in
     their standard deviations; False, the default: the transforms' order decides; ranked was
     worse on the tuning split, BENCHMARKS.md "Competing images ranked by their contacts");
+    ``merge_images``: competing images are merged into their mean instead (:meth:`Symmetry.images`);
     ``min_contacts``: fewer contacts say nothing;
     ``face_match_radius_m`` / ``face_conflict_rad``: how near a face's mapped centre must lie to
     another face's centre to be compared, and by how much more than both faces' tilt and curvature
@@ -190,6 +191,7 @@ class SymmetrySettings:
     min_image_gap_m: float = 3e-3
     max_images: int = 1000
     rank_images: bool = False
+    merge_images: bool = False
     min_contacts: int = 20
     face_match_radius_m: float = 5e-3
     face_min_width_m: float = 0.010
@@ -239,6 +241,9 @@ class Symmetry:
     rank_images : bool
         Whether the GPIS that observes the images ranks competing images by their contacts'
         agreement (``SymmetrySettings.rank_images`` of the search that found this).
+    merge_images : bool
+        Whether :meth:`images` merges competing images into their mean
+        (``SymmetrySettings.merge_images`` of the search that found this).
     """
 
     transforms: tuple[Transform, ...] = ()
@@ -248,6 +253,7 @@ class Symmetry:
     feature_points: np.ndarray | None = None
     feature_radius_m: float = SymmetrySettings.feature_radius_m
     rank_images: bool = SymmetrySettings.rank_images
+    merge_images: bool = SymmetrySettings.merge_images
 
     @property
     def kind(self) -> str:
@@ -280,7 +286,10 @@ class Symmetry:
         image_points : (k, 3) float; image_normals : (k, 3) float; with ``return_sources``,
         sources : (k,) int, the index of the contact each image copies. An image closer than
         ``min_image_gap_m`` to a contact or to an image kept before it is left out (it adds nothing
-        a contact does not say); at most ``max_images`` are kept (an even, seeded subsample).
+        a contact does not say); with ``merge_images``, an image near a contact is left out and
+        the others closer than that to an image taken first are merged with it into their mean
+        (its source is the first's), so no single copy decides the place. At most ``max_images``
+        are kept (an even, seeded subsample).
         """
         points, normals = np.asarray(points, float), np.asarray(normals, float)
         if not (self.transforms or self.body_transforms) or len(points) == 0:
@@ -304,14 +313,18 @@ class Symmetry:
             order = np.concatenate([np.arange(len(points)),
                                     len(points) + np.argsort(priority[all_sources[len(points):]], kind="stable")])
             all_points, all_normals, all_sources = all_points[order], all_normals[order], all_sources[order]
-        tree = cKDTree(all_points)
-        taken = np.zeros(len(all_points), bool)
-        taken[:len(points)] = True
-        for i in range(len(points), len(all_points)):
-            if not any(taken[j] for j in tree.query_ball_point(all_points[i], settings.min_image_gap_m)):
-                taken[i] = True
-        taken[:len(points)] = False
-        image_points, image_normals, sources = all_points[taken], all_normals[taken], all_sources[taken]
+        if self.merge_images:
+            image_points, image_normals, sources = _merged_images(all_points, all_normals, all_sources,
+                                                                  len(points), settings.min_image_gap_m)
+        else:
+            tree = cKDTree(all_points)
+            taken = np.zeros(len(all_points), bool)
+            taken[:len(points)] = True
+            for i in range(len(points), len(all_points)):
+                if not any(taken[j] for j in tree.query_ball_point(all_points[i], settings.min_image_gap_m)):
+                    taken[i] = True
+            taken[:len(points)] = False
+            image_points, image_normals, sources = all_points[taken], all_normals[taken], all_sources[taken]
         if len(image_points) > settings.max_images:
             keep = np.sort(np.random.default_rng(0).choice(len(image_points), settings.max_images, replace=False))
             image_points, image_normals, sources = image_points[keep], image_normals[keep], sources[keep]
@@ -324,6 +337,36 @@ class Symmetry:
             return np.zeros(len(points), bool)
         distance, _ = cKDTree(self.feature_points).query(points)
         return distance <= self.feature_radius_m
+
+
+def _merged_images(points: np.ndarray, normals: np.ndarray, sources: np.ndarray, n_contacts: int,
+                   gap_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Images merged where they compete: ``points`` / ``normals`` (m, 3) and ``sources`` (m,) list
+    the ``n_contacts`` contacts first, then their copies in order. A copy within ``gap_m`` of a
+    contact is left out; each remaining copy not yet merged takes every unmerged copy within
+    ``gap_m`` of it whose normal is less than 90 deg from its own (the other side of a thin wall
+    does not compete), and the group becomes one image at the group's mean position with its mean
+    normal (unit), the first copy's source. Returns (k, 3), (k, 3), (k,)."""
+    copies = np.arange(n_contacts, len(points))
+    if n_contacts:
+        distance, _ = cKDTree(points[:n_contacts]).query(points[copies])
+        copies = copies[distance > gap_m]
+    if len(copies) == 0:
+        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, int)
+    tree = cKDTree(points[copies])
+    merged = np.zeros(len(copies), bool)
+    out_points, out_normals, out_sources = [], [], []
+    for i in range(len(copies)):
+        if merged[i]:
+            continue
+        near = np.asarray(tree.query_ball_point(points[copies[i]], gap_m), int)
+        group = near[~merged[near] & (normals[copies[near]] @ normals[copies[i]] > 0.0)]
+        merged[group] = True
+        out_points.append(points[copies[group]].mean(0))
+        normal = normals[copies[group]].sum(0)
+        out_normals.append(normal / np.linalg.norm(normal))
+        out_sources.append(sources[copies[i]])
+    return np.array(out_points), np.array(out_normals), np.array(out_sources, int)
 
 
 def reflection(normal: np.ndarray, offset_m: float) -> Transform:
@@ -354,7 +397,7 @@ def find_symmetry(points: np.ndarray, normals: np.ndarray, gpis=None,
         candidate (without it, only the contacts and their hull judge).
     """
     found = _find_symmetry(points, normals, gpis, settings)
-    return replace(found, rank_images=settings.rank_images)
+    return replace(found, rank_images=settings.rank_images, merge_images=settings.merge_images)
 
 
 def _find_symmetry(points, normals, gpis, settings: SymmetrySettings) -> Symmetry:
