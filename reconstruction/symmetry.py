@@ -132,11 +132,14 @@ class SymmetrySettings:
     planes through a refused axis of revolution refined first; ``search_grid``: points per axis
     of the GPIS mean the search interpolates; ``rotations``: turns about an axis of revolution
     (360 / rotations apart); ``min_image_gap_m`` / ``max_images``: images kept
-    (:meth:`Symmetry.images`), and ``rank_images``: where images compete for a place, the GPIS
-    keeps the copy of the contact its other observations predict best (its left-out value in
-    their standard deviations; False, the default: the transforms' order decides; ranked was
-    worse on the tuning split, BENCHMARKS.md "Competing images ranked by their contacts");
-    ``merge_images``: competing images are merged into their mean instead (:meth:`Symmetry.images`);
+    (:meth:`Symmetry.images`); ``merge_images``: images that compete for a place (nearer each
+    other than ``min_image_gap_m``) are merged into their mean (the default; False: the first is
+    kept, and the order of the transforms decides which; merged was better on the tuning split,
+    BENCHMARKS.md "Competing images merged into their mean"), and ``rank_images``: the GPIS
+    orders competing images by how well its other observations predict their contacts (their
+    left-out values in their standard deviations), so the best leads a merged group or, unmerged,
+    is kept (False, the default: the transforms' order; ranked was worse on the tuning split,
+    BENCHMARKS.md "Competing images ranked by their contacts");
     ``min_contacts``: fewer contacts say nothing;
     ``face_match_radius_m`` / ``face_conflict_rad``: how near a face's mapped centre must lie to
     another face's centre to be compared, and by how much more than both faces' tilt and curvature
@@ -191,7 +194,7 @@ class SymmetrySettings:
     min_image_gap_m: float = 3e-3
     max_images: int = 1000
     rank_images: bool = False
-    merge_images: bool = False
+    merge_images: bool = True
     min_contacts: int = 20
     face_match_radius_m: float = 5e-3
     face_min_width_m: float = 0.010

@@ -147,7 +147,7 @@ MESH_OPTIONS["symmetry-thin-plate-images"] = {"symmetry": True}
 #: images' score and holding for every contact (before it was placed by the profile), with the mirror
 #: planes' crossing axis as found (before it was polished by its profile) or polished and meshed as a
 #: revolution alone, with competing images ranked by their contacts' left-out agreement (not kept), or
-#: merged into their mean.
+#: with the first of competing images kept instead of their mean (before the mean).
 SYMMETRY_SETTINGS = {"symmetry-no-feature": SymmetrySettings(max_feature_share=None),
                      "symmetry-unpolished": SymmetrySettings(profile_scales_m=()),
                      "symmetry-unrescued": SymmetrySettings(rescue_starts=None),
@@ -155,7 +155,7 @@ SYMMETRY_SETTINGS = {"symmetry-no-feature": SymmetrySettings(max_feature_share=N
                      "symmetry-planes-unpolished": SymmetrySettings(polish_planes_axis=None),
                      "symmetry-planes-revolution": SymmetrySettings(polish_planes_axis="revolution"),
                      "symmetry-images-ranked": SymmetrySettings(rank_images=True),
-                     "symmetry-images-merged": SymmetrySettings(merge_images=True)}
+                     "symmetry-images-first": SymmetrySettings(merge_images=False)}
 METHODS.update({name: _current_default for name in SYMMETRY_SETTINGS})
 MESH_OPTIONS.update({name: {"outside_evidence": False} for name in EVIDENCE_VARIANTS})  # rows already added
 

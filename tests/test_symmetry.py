@@ -580,7 +580,7 @@ def _vase_turns(turns=16):
 def test_images_name_the_contact_they_copy():
     vase = _vase()
     points, normals, _, _ = sample_contacts(vase, 40, noise=ContactNoise.off(), seed=0)
-    found = _vase_turns()
+    found = replace(_vase_turns(), merge_images=False)  # each image one copy, not a mean
     images, image_normals, sources = found.images(points, normals, return_sources=True)
     np.testing.assert_array_equal(np.column_stack(found.images(points, normals)), np.column_stack([images, image_normals]))
     copies = np.stack([points[sources] @ m.T + t for m, t in found.transforms])   # (transforms, k, 3)
@@ -593,7 +593,8 @@ def test_competing_images_keep_the_copy_of_the_contact_ranked_first():
     # only one is kept; the lower priority wins, without priorities the first transform's.
     points = np.array([[0.02, 0.0, 0.0], [0.02, 0.002, 0.0]])
     normals = np.array([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
-    mirror = Symmetry((reflection(np.array([1.0, 0.0, 0.0]), 0.0),), ((np.array([1.0, 0.0, 0.0]), 0.0),))
+    mirror = Symmetry((reflection(np.array([1.0, 0.0, 0.0]), 0.0),), ((np.array([1.0, 0.0, 0.0]), 0.0),),
+                      merge_images=False)
     for priority, kept in ((None, 0), ([1.0, 0.0], 1), ([0.0, 1.0], 0)):
         images, image_normals, sources = mirror.images(points, normals, return_sources=True, priority=priority)
         assert sources.tolist() == [kept]
@@ -612,7 +613,7 @@ def test_ranked_images_do_not_depend_on_the_order_of_the_turns(rank):
     vase = _vase()
     points, normals, _, _ = sample_contacts(vase, 80, seed=3)
     gpis = GPIS(bounds=_bounds(vase)).fit(points, normals)
-    found = replace(_vase_turns(8), rank_images=rank)
+    found = replace(_vase_turns(8), rank_images=rank, merge_images=False)
     reversed_turns = replace(found, transforms=found.transforms[::-1])
     observed = [np.array(sorted(map(tuple, np.round(gpis._with_symmetric_images(s)[0].contact_points, 12))))
                 for s in (found, reversed_turns)]
@@ -629,8 +630,8 @@ def test_merged_images_are_the_mean_of_the_copies_that_compete():
     tilt = np.array([1.0, 0.1, 0.0]) / np.linalg.norm([1.0, 0.1, 0.0])
     points = np.array([[0.02, 0.0, 0.0], [0.02, 0.002, 0.0], [0.021, 0.001, 0.0], [0.0, 0.05, 0.0]])
     normals = np.array([[1.0, 0.0, 0.0], tilt, [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
-    mirror = replace(Symmetry((reflection(np.array([1.0, 0.0, 0.0]), 0.0),), ((np.array([1.0, 0.0, 0.0]), 0.0),)),
-                     merge_images=True)
+    mirror = Symmetry((reflection(np.array([1.0, 0.0, 0.0]), 0.0),), ((np.array([1.0, 0.0, 0.0]), 0.0),))
+    assert mirror.merge_images  # the default
     images, image_normals, sources = mirror.images(points, normals, return_sources=True)
     flip = np.array([-1.0, 1.0, 1.0])
     assert len(images) == 2
