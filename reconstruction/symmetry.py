@@ -289,7 +289,8 @@ class Symmetry:
         image_points : (k, 3) float; image_normals : (k, 3) float; with ``return_sources``,
         sources : (k,) int, the index of the contact each image copies. An image closer than
         ``min_image_gap_m`` to a contact or to an image kept before it is left out (it adds nothing
-        a contact does not say); with ``merge_images``, an image near a contact is left out and
+        a contact does not say); with this Symmetry's ``merge_images`` (the search copies it from
+        its settings, ``settings`` here does not change it), an image near a contact is left out and
         the others closer than that to an image taken first are merged with it into their mean
         (its source is the first's), so no single copy decides the place. At most ``max_images``
         are kept (an even, seeded subsample).
