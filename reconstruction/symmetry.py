@@ -317,18 +317,8 @@ class Symmetry:
             order = np.concatenate([np.arange(len(points)),
                                     len(points) + np.argsort(priority[all_sources[len(points):]], kind="stable")])
             all_points, all_normals, all_sources = all_points[order], all_normals[order], all_sources[order]
-        if self.merge_images:
-            image_points, image_normals, sources = _merged_images(all_points, all_normals, all_sources,
-                                                                  len(points), settings.min_image_gap_m)
-        else:
-            tree = cKDTree(all_points)
-            taken = np.zeros(len(all_points), bool)
-            taken[:len(points)] = True
-            for i in range(len(points), len(all_points)):
-                if not any(taken[j] for j in tree.query_ball_point(all_points[i], settings.min_image_gap_m)):
-                    taken[i] = True
-            taken[:len(points)] = False
-            image_points, image_normals, sources = all_points[taken], all_normals[taken], all_sources[taken]
+        image_points, image_normals, sources = _grouped_images(all_points, all_normals, all_sources, len(points),
+                                                               settings.min_image_gap_m, self.merge_images)
         if len(image_points) > settings.max_images:
             keep = np.sort(np.random.default_rng(0).choice(len(image_points), settings.max_images, replace=False))
             image_points, image_normals, sources = image_points[keep], image_normals[keep], sources[keep]
@@ -343,14 +333,15 @@ class Symmetry:
         return distance <= self.feature_radius_m
 
 
-def _merged_images(points: np.ndarray, normals: np.ndarray, sources: np.ndarray, n_contacts: int,
-                   gap_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Images merged where they compete: ``points`` / ``normals`` (m, 3) and ``sources`` (m,) list
-    the ``n_contacts`` contacts first, then their copies in order. A copy within ``gap_m`` of a
-    contact is left out; each remaining copy not yet merged takes every unmerged copy within
-    ``gap_m`` of it whose normal is less than 90 deg from its own (the other side of a thin wall
-    does not compete), and the group becomes one image at the group's mean position with its mean
-    normal (unit), the first copy's source. Returns (k, 3), (k, 3), (k,)."""
+def _grouped_images(points: np.ndarray, normals: np.ndarray, sources: np.ndarray, n_contacts: int,
+                    gap_m: float, merge: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The images kept where copies compete: ``points`` / ``normals`` (m, 3) and ``sources`` (m,)
+    list the ``n_contacts`` contacts first, then their copies in order. A copy within ``gap_m`` of
+    a contact is left out. Each remaining copy not yet grouped leads a group of the ungrouped copies
+    within ``gap_m`` of it; ``merge``: only those whose normal is less than 90 deg from its own (the
+    other side of a thin wall does not compete), and the group is one image at its mean position
+    with its mean normal (unit); otherwise the leader alone is kept. Each image names its leader's
+    source. Returns (k, 3), (k, 3), (k,)."""
     copies = np.arange(n_contacts, len(points))
     if n_contacts:
         distance, _ = cKDTree(points[:n_contacts]).query(points[copies])
@@ -358,19 +349,25 @@ def _merged_images(points: np.ndarray, normals: np.ndarray, sources: np.ndarray,
     if len(copies) == 0:
         return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, int)
     tree = cKDTree(points[copies])
-    merged = np.zeros(len(copies), bool)
-    out_points, out_normals, out_sources = [], [], []
+    grouped = np.zeros(len(copies), bool)
+    leaders, out_points, out_normals = [], [], []
     for i in range(len(copies)):
-        if merged[i]:
+        if grouped[i]:
             continue
         near = np.asarray(tree.query_ball_point(points[copies[i]], gap_m), int)
-        group = near[~merged[near] & (normals[copies[near]] @ normals[copies[i]] > 0.0)]
-        merged[group] = True
-        out_points.append(points[copies[group]].mean(0))
-        normal = normals[copies[group]].sum(0)
-        out_normals.append(normal / np.linalg.norm(normal))
-        out_sources.append(sources[copies[i]])
-    return np.array(out_points), np.array(out_normals), np.array(out_sources, int)
+        group = near[~grouped[near]]
+        if merge:
+            group = group[normals[copies[group]] @ normals[copies[i]] > 0.0]
+        grouped[group] = True
+        leaders.append(copies[i])
+        if merge:
+            out_points.append(points[copies[group]].mean(0))
+            normal = normals[copies[group]].sum(0)
+            out_normals.append(normal / np.linalg.norm(normal))
+    leaders = np.array(leaders, int)
+    if not merge:
+        return points[leaders], normals[leaders], sources[leaders]
+    return np.array(out_points), np.array(out_normals), sources[leaders]
 
 
 def reflection(normal: np.ndarray, offset_m: float) -> Transform:
