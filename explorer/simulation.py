@@ -14,7 +14,7 @@ import objects
 import robots
 from explorer.positioner import SimulatedStand, turntable_poses
 from robots.kinematics import ArmKinematics
-from robots.pad_compliance import measure_pad_compliance_m_per_n
+from robots.pad_compliance import measure_pad_compliance_m_per_n, measure_pad_point_compliance_m_per_n
 from robots.sim_arm import SimArm
 from robots.sim_world import SimWorld
 from sensor.pad_calibration import PAD_STIFFNESS_N_PER_M, PadCalibration
@@ -37,9 +37,8 @@ class SimScene:
     object_model : objects.ObjectModel
         Ground truth (object frame).
     pad : PadCalibration
-        The simulated pad's own force model and its compliance measured on a flat plate
-        (:func:`robots.pad_compliance.measure_pad_compliance_m_per_n`), as a lab calibrates a
-        real pad's.
+        The simulated pad's own force model and its compliance measured on a flat plate and on one
+        point (:mod:`robots.pad_compliance`), as a lab calibrates a real pad's.
     profile : SimProfile
         The errors this scene simulates.
     """
@@ -109,7 +108,8 @@ def build_scene(object_name: str, robot_name: str = "armar3", seed: int = 0, gui
         connect_sensor(world, arm, sensor)
         sensor.open()
         pad = PadCalibration(sensor.config.barometer.pad, measure_pad_compliance_m_per_n(spec),
-                             spring_stiffness_nm_per_rad=spec.spring_stiffness_nm_per_rad)
+                             spring_stiffness_nm_per_rad=spec.spring_stiffness_nm_per_rad,
+                             point_compliance_m_per_n=measure_pad_point_compliance_m_per_n(spec))
         return SimScene(world, arm, sensor, ArmKinematics(spec), stand, model, pad, profile)
     except Exception:
         world.close()

@@ -6,8 +6,9 @@ Public API (see robots/README.md):
 * kinematics: :class:`ArmKinematics` (FK/Jacobian from the URDF), :class:`PadIK` / :func:`solve_pad_ik`,
   :class:`ArmSpheres` (the URDF's collision shapes as spheres placed by FK, for planning);
 * simulation: :class:`SimWorld`, :class:`TableSpec`, :class:`ObjectHandle`, :class:`SimArm`,
-  :class:`EncoderModel`, :class:`ArmContact`, :func:`measure_pad_compliance_m_per_n` (the simulated
-  pad's compression per newton on a flat plate).
+  :class:`EncoderModel`, :class:`ArmContact`, :func:`measure_pad_compliance_m_per_n` and
+  :func:`measure_pad_point_compliance_m_per_n` (the simulated pad's compression per newton on a
+  flat plate and on one point).
 
 Heavy modules (torch, pybullet) are imported on first use of their names, so that importing
 ``robots.interface`` stays light.
@@ -40,6 +41,7 @@ _LAZY = {
     "cross_validated_ridge": "robots.joint_calibration",
     "RidgeChoice": "robots.joint_calibration",
     "measure_pad_compliance_m_per_n": "robots.pad_compliance",
+    "measure_pad_point_compliance_m_per_n": "robots.pad_compliance",
 }
 
 __all__ = ["RobotRegistry", "RobotSpec", "load", "names", "register", *_LAZY]

@@ -55,6 +55,11 @@ class PadCalibration:
         times this is the contact's torque about the pivot, which says where on the pad it pressed.
     half_width_m : float
         Half the side of the square pad face, metres.
+    point_compliance_m_per_n : float or None
+        Pad compression per newton where the face bears on one point (pressed head on onto a small
+        ball), metres per newton: larger than ``compliance_m_per_n``, which a flat plate gives; used
+        where the surface curves away from the pad in every direction
+        (:mod:`explorer.pad_indentation`). None: not measured, no such correction.
     """
 
     force_model: PadForceModel = field(default_factory=PadResponse)
@@ -62,10 +67,14 @@ class PadCalibration:
     alignment: ImuAlignment = field(default_factory=ImuAlignment)
     spring_stiffness_nm_per_rad: float = SPRING_STIFFNESS_NM_PER_RAD
     half_width_m: float = PAD_HALF_WIDTH_M
+    point_compliance_m_per_n: float | None = None
 
     def __post_init__(self):
         if not (np.isfinite(self.compliance_m_per_n) and self.compliance_m_per_n >= 0.0):
             raise ValueError(f"compliance_m_per_n must be finite and >= 0, got {self.compliance_m_per_n}")
+        point = self.point_compliance_m_per_n
+        if point is not None and not (np.isfinite(point) and point >= 0.0):
+            raise ValueError(f"point_compliance_m_per_n must be finite and >= 0 (or None: not measured), got {point}")
         for name in ("spring_stiffness_nm_per_rad", "half_width_m"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0.0):
@@ -84,11 +93,14 @@ class PadCalibration:
                     body_in_imu_wxyz=[float(v) for v in self.alignment.body_in_imu_wxyz],
                     reference_in_world_wxyz=[float(v) for v in self.alignment.reference_in_world_wxyz],
                     spring_stiffness_nm_per_rad=float(self.spring_stiffness_nm_per_rad),
-                    half_width_m=float(self.half_width_m))
+                    half_width_m=float(self.half_width_m),
+                    point_compliance_m_per_n=None if self.point_compliance_m_per_n is None
+                    else float(self.point_compliance_m_per_n))
 
     @classmethod
     def from_dict(cls, data: dict) -> "PadCalibration":
-        """The calibration :meth:`as_dict` wrote (missing entries take the nominal pad's values)."""
+        """The calibration :meth:`as_dict` wrote (missing entries take the nominal pad's values; a
+        missing point compliance is not measured)."""
         nominal = cls()
         alignment = ImuAlignment(
             tuple(float(v) for v in data.get("body_in_imu_wxyz", nominal.alignment.body_in_imu_wxyz)),
@@ -96,4 +108,5 @@ class PadCalibration:
         return cls(PadResponse(**data.get("force_model", {})),
                    float(data.get("compliance_m_per_n", nominal.compliance_m_per_n)), alignment,
                    float(data.get("spring_stiffness_nm_per_rad", nominal.spring_stiffness_nm_per_rad)),
-                   float(data.get("half_width_m", nominal.half_width_m)))
+                   float(data.get("half_width_m", nominal.half_width_m)),
+                   None if data.get("point_compliance_m_per_n") is None else float(data["point_compliance_m_per_n"]))

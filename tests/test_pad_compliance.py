@@ -21,10 +21,10 @@ def test_the_compression_grows_in_proportion_to_the_force_and_with_a_softer_pad(
     assert 0.5 / (4 * 3000.0) < compliance < 3.0 / (4 * 3000.0)
     assert 3.0 < measure_pad_compliance_m_per_n(soft) / compliance < 9.0  # a 6x softer contact
     # proportional: other forces give the same slope (the pipeline adds force x compliance back)
-    pad_compliance._measured.cache_clear()
+    pad_compliance._slope.cache_clear()
     monkeypatch.setattr(pad_compliance, "PRESS_FORCES_N", (2.0, 4.0))
     assert measure_pad_compliance_m_per_n(stiff) == pytest.approx(compliance, rel=0.15)
-    pad_compliance._measured.cache_clear()
+    pad_compliance._slope.cache_clear()
 
 
 def test_the_scene_corrects_contacts_with_the_measured_compliance():
