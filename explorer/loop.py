@@ -35,6 +35,7 @@ from explorer.contact import (LOOP_SETTLING, ContactPipeline, DoubtRule, NoConta
 from explorer.evidence import SurfaceEvidence, with_swept_free_space
 from explorer.motion_time import MotionTimeEstimator
 from explorer.pad_bridging import PadBridging
+from explorer.pad_indentation import PadIndentation
 from explorer.planner import ApproachPlan, ApproachPlanner
 from explorer.rig import Rig
 from explorer.rim_standoff import RimStandoff
@@ -45,6 +46,7 @@ from reconstruction.meshing import check_refine_steps
 from robots.interface import MoveNotReachedError
 from sensor.contact_detection import PressureContactDetector, PressureDetectorConfig
 from sensor.normal_estimation import SettlingConfig
+from sensor.pad_calibration import PadCalibration
 from sensor.reading import Reading
 
 
@@ -256,6 +258,14 @@ class LoopConfig:
         :mod:`explorer.pad_bridging`); with normals only. The loop's own field is left as measured.
         Chosen on the tuning split (BENCHMARKS.md, "A flat pad bridges concave surfaces"). False:
         runs recorded before 2026-11-27.
+    indent_convex_contacts : bool
+        The reconstruction takes each contact on a surface curving away from the pad in every
+        direction as lying further out than the flat compliance put it, by what the pad sank further
+        on one point (:mod:`explorer.pad_indentation`, from the neighbours' measured normals and the
+        pad's point compliance; none where that is not measured), with or without normals in the
+        GPIS (where the contact is, as the compression). The loop's own field is left as measured.
+        Chosen on the tuning split (BENCHMARKS.md, "A pad on a ball sinks deeper"). False: runs
+        recorded before 2026-12-08.
     reconstruction_symmetry : bool
         The run's mesh also takes the contacts' images under the mirror planes or the axis of
         revolution the contacts support (``GPIS.mesh(symmetry=...)``, :mod:`reconstruction.symmetry`);
@@ -317,6 +327,7 @@ class LoopConfig:
     stop_off_line: bool = False
     loose_settle_deviation_rad: float | None = float(np.radians(1.5))
     bridge_concave_contacts: bool = True
+    indent_convex_contacts: bool = True
     reconstruction_symmetry: bool = True
     reconstruction_refine_steps: int = 0
     reconstruction_sets_aside_rim_standoffs: bool = True
@@ -340,23 +351,31 @@ class LoopConfig:
         return replace(settling, max_deviation_rad=self.loose_settle_deviation_rad, window="steadiest",
                        average_window_s=settling.settle_window_s)
 
-    def reconstruction_records(self, records, pad_half_width_m: float, use_normals: bool = True) -> tuple[list, int]:
-        """The touches the reconstruction is fitted to, and the number of contacts changed:
-        ``records`` with each contact on a concave surface moved in by the height its pad bridged
-        (:class:`explorer.pad_bridging.PadBridging`, from the neighbours' measured normals) when
-        ``bridge_concave_contacts`` and the GPIS uses normals; else ``records`` as they are.
-        ``pad_half_width_m``: half the side of the square pad, metres."""
-        if not (self.bridge_concave_contacts and use_normals):
-            return list(records), 0
-        return PadBridging().apply(records, pad_half_width_m)
+    def reconstruction_records(self, records, pad: PadCalibration,
+                               use_normals: bool = True) -> tuple[list, int, int]:
+        """The touches the reconstruction is fitted to, and the numbers of contacts bridged and
+        indented: ``records`` with each contact on a concave surface moved in by the height its pad
+        bridged when the GPIS uses normals (``bridge_concave_contacts``,
+        :class:`explorer.pad_bridging.PadBridging`), then each on a surface curving away in every
+        direction moved out by what its pad sank further there, with or without normals in the
+        GPIS: a correction of where the contact is, as the compression is
+        (``indent_convex_contacts``, :class:`explorer.pad_indentation.PadIndentation`); both read
+        the surface's curvature from the neighbours' measured normals. ``pad``: the pad's half width
+        and compliances."""
+        taken, bridged, indented = list(records), 0, 0
+        if self.bridge_concave_contacts and use_normals:
+            taken, bridged = PadBridging().apply(taken, pad.half_width_m)
+        if self.indent_convex_contacts:  # where the contact is, as the compression: both GPIS kinds
+            taken, indented = PadIndentation().apply(taken, pad)
+        return taken, bridged, indented
 
-    def reconstruction_field(self, gpis: GPIS, records, pad_half_width_m: float) -> tuple[GPIS, int]:
+    def reconstruction_field(self, gpis: GPIS, records, pad: PadCalibration) -> tuple[GPIS, int]:
         """The field the run's reconstruction is meshed from and the number of free-space rows it
         adds (:meth:`reconstruction`'s ``field`` and ``swept_rows``)."""
-        built = self.reconstruction(gpis, records, pad_half_width_m)
+        built = self.reconstruction(gpis, records, pad)
         return built.field, built.swept_rows
 
-    def reconstruction(self, gpis: GPIS, records, pad_half_width_m: float) -> "Reconstruction":
+    def reconstruction(self, gpis: GPIS, records, pad: PadCalibration) -> "Reconstruction":
         """The run's reconstruction field and what went into it: ``gpis`` rebuilt from
         :meth:`reconstruction_records` (without the misses' rows when ``reconstruction_gates_misses``;
         its doubtful contacts with ``reconstruction_doubtful_normal_noise`` and, on thin walls,
@@ -366,20 +385,20 @@ class LoopConfig:
         (``reconstruction_sets_aside_rim_standoffs``), round after round while another shows
         (at most :data:`RIM_STANDOFF_ROUNDS`).
         ``gpis`` itself is unchanged; with none of these settings it is the field.
-        ``pad_half_width_m``: half the side of the square pad, metres."""
-        taken, bridged = self.reconstruction_records(records, pad_half_width_m, gpis.use_normals)
-        field, rows = self._reconstruction_field(gpis, taken, rebuild=bool(bridged))
+        ``pad``: the pad's half width and compliances."""
+        taken, bridged, indented = self.reconstruction_records(records, pad, gpis.use_normals)
+        field, rows = self._reconstruction_field(gpis, taken, rebuild=bool(bridged or indented))
         standing_off: tuple[int, ...] = ()
         rounds = RIM_STANDOFF_ROUNDS if self.reconstruction_sets_aside_rim_standoffs and gpis.use_normals else 0
         for _ in range(rounds):  # until none is left: a standing-off neighbour can hide one
-            found = tuple(r.index for r in RimStandoff().records(field, taken, pad_half_width_m))
+            found = tuple(r.index for r in RimStandoff().records(field, taken, pad.half_width_m))
             if not found:
                 break
             standing_off += found  # bridged again without them: their normals, 55-70 deg off, bent the neighbours'
             kept = [r for r in records if not (r.kind == "contact" and r.index in standing_off)]
-            taken, bridged = self.reconstruction_records(kept, pad_half_width_m, gpis.use_normals)
+            taken, bridged, indented = self.reconstruction_records(kept, pad, gpis.use_normals)
             field, rows = self._reconstruction_field(gpis, taken, rebuild=True)
-        return Reconstruction(field, rows, bridged, tuple(sorted(standing_off)))
+        return Reconstruction(field, rows, bridged, tuple(sorted(standing_off)), indented)
 
     def _reconstruction_field(self, gpis: GPIS, records, rebuild: bool) -> tuple[GPIS, int]:
         """``gpis`` as the reconstruction takes ``records`` (see :meth:`reconstruction`); ``rebuild``:
@@ -452,12 +471,15 @@ class Reconstruction:
         Contacts moved in by the height the flat pad bridged.
     rim_standoff_touches : tuple of int
         Indices of the touches whose contacts stood off on the pad's rim, left out of it.
+    indented_contacts : int
+        Contacts moved out by what the pad sank further on a surface curving away in every direction.
     """
 
     field: GPIS
     swept_rows: int
     bridged_contacts: int
     rim_standoff_touches: tuple[int, ...] = ()
+    indented_contacts: int = 0
 
 
 @dataclass

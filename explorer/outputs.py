@@ -79,8 +79,10 @@ def reconstruction_counts(built) -> dict:
     took differently from the loop's field: contacts moved in where the pad bridged
     (``bridged_contacts``), free-space rows of the approach lines (``swept_free_space_rows``), the
     contacts left out because they stood off on the pad's rim (``rim_standoff_contacts``) and their
-    touches (``rim_standoff_touches``, indices)."""
-    return dict(bridged_contacts=built.bridged_contacts, swept_free_space_rows=built.swept_rows,
+    touches (``rim_standoff_touches``, indices), and contacts moved out where the pad bore on one
+    point (``indented_contacts``)."""
+    return dict(bridged_contacts=built.bridged_contacts, indented_contacts=built.indented_contacts,
+                swept_free_space_rows=built.swept_rows,
                 rim_standoff_contacts=len(built.rim_standoff_touches),
                 rim_standoff_touches=[int(i) for i in built.rim_standoff_touches])
 

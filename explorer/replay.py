@@ -98,6 +98,13 @@ class ReplaySettings:
     bridge_concave_contacts : bool or None
         Move contacts on concave surfaces in by the height their pad bridged before meshing
         (``LoopConfig.bridge_concave_contacts``); None: as recorded (sessions recorded before: off).
+    indent_convex_contacts : bool or None
+        Move contacts on surfaces curving away in every direction out by what the pad sank further
+        there (``LoopConfig.indent_convex_contacts``); None: as recorded (sessions recorded before: off).
+    point_compliance_m_per_n : float or None
+        The pad's compression per newton on one point to indent with, metres per newton
+        (``PadCalibration.point_compliance_m_per_n``); None: as recorded (sessions recorded before
+        2026-12-08 have none, and are not indented without it).
     reconstruction_symmetry : bool or None
         Mesh with the contacts' images under the symmetry they support
         (``LoopConfig.reconstruction_symmetry``); None: as recorded (sessions recorded before: off).
@@ -115,6 +122,8 @@ class ReplaySettings:
     segment_gap_s: float | None = None
     side_presses: bool | None = None
     bridge_concave_contacts: bool | None = None
+    indent_convex_contacts: bool | None = None
+    point_compliance_m_per_n: float | None = None
     reconstruction_symmetry: bool | None = None
     figures: bool = True
 
@@ -330,6 +339,8 @@ class SessionReplay:
             self.loop_config = replace(self.loop_config, reconstruction_sets_aside_rim_standoffs=False)
         if "bridge_concave_contacts" not in recorded_loop:  # meshed with the contacts as measured
             self.loop_config = replace(self.loop_config, bridge_concave_contacts=False)
+        if "indent_convex_contacts" not in recorded_loop:
+            self.loop_config = replace(self.loop_config, indent_convex_contacts=False)
         doubt = (DoubtRule() if self.teleop else DoubtRule(-np.inf) if self.legacy_contacts
                  else self.loop_config.doubt_rule())
         self.pipeline = ContactPipeline(self.kinematics, self.pad, self.settling,
@@ -545,6 +556,8 @@ class SessionReplay:
             config = replace(config, side_press_noise=side_noise)
         if settings.bridge_concave_contacts is not None:
             config = replace(config, bridge_concave_contacts=settings.bridge_concave_contacts)
+        if settings.indent_convex_contacts is not None:
+            config = replace(config, indent_convex_contacts=settings.indent_convex_contacts)
         if settings.reconstruction_symmetry is not None:
             config = replace(config, reconstruction_symmetry=settings.reconstruction_symmetry)
         return config
@@ -627,7 +640,9 @@ class SessionReplay:
         if self.teleop:
             return gpis, {}
         config = self._loop_config(settings)
-        built = config.reconstruction(gpis, touches, self.pad.half_width_m)
+        pad = self.pad if settings.point_compliance_m_per_n is None else replace(
+            self.pad, point_compliance_m_per_n=settings.point_compliance_m_per_n)
+        built = config.reconstruction(gpis, touches, pad)
         counts = reconstruction_counts(built)
         if not config.swept_free_space:
             del counts["swept_free_space_rows"]

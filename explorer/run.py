@@ -188,7 +188,7 @@ def run_on_rig(rig: Rig, settings: RunSettings, out_dir: Path, progress=None, re
                 and gpis.n_contacts >= 4):
             t0 = time.perf_counter()
             try:
-                field = loop.config.reconstruction_field(gpis, loop.records, rig.pad.half_width_m)[0]
+                field = loop.config.reconstruction_field(gpis, loop.records, rig.pad)[0]
                 err = surface_error(field.mesh(resolution=48, symmetry=loop.config.reconstruction_symmetry,
                                                refine_steps=loop.config.reconstruction_refine_steps),
                                     rig.reference, n_samples=5000,
@@ -325,7 +325,7 @@ def _finish(loop, gpis, rig, planner, out_dir, recorder, settings, curve, robot_
     contacts = np.array([r.position_m for r in contact_records]).reshape(-1, 3)
     normals = np.array([r.normal for r in contact_records]).reshape(-1, 3)
     try:
-        built = loop.config.reconstruction(gpis, loop.records, rig.pad.half_width_m)
+        built = loop.config.reconstruction(gpis, loop.records, rig.pad)
         gpis = built.field
         metrics.update(reconstruction_counts(built))
         mesh = write_mesh(gpis, settings.mesh_resolution, out_dir, metrics, loop.config.reconstruction_symmetry,

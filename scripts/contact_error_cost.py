@@ -71,11 +71,10 @@ def error_cost(run: Path, worse_than_m: float, mesh_resolution: int | None = Non
     settings = ReplaySettings(figures=False, mesh_resolution=mesh_resolution)
     replayed = replay.run(settings).touches
     resolution = replay.mesh_resolution(settings)
-    # the contacts as the run's reconstruction took them (bridged ones moved in), then no further
-    # change: an exact contact is not to be moved
-    touches = replay.loop_config.reconstruction_records(replayed, replay.pad.half_width_m,
-                                                        replay.use_normals(settings))[0]
-    as_given = replace(settings, bridge_concave_contacts=False)
+    # the contacts as the run's reconstruction took them (bridged ones moved in, indented ones out), then
+    # no further change: an exact contact is not to be moved
+    touches = replay.loop_config.reconstruction_records(replayed, replay.pad, replay.use_normals(settings))[0]
+    as_given = replace(settings, bridge_concave_contacts=False, indent_convex_contacts=False)
 
     def rmse(records) -> float | None:
         try:

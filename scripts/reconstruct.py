@@ -37,6 +37,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--bridge-concave", choices=("on", "off"),
                         help="move contacts on concave surfaces in by the height the flat pad bridged "
                              "(LoopConfig.bridge_concave_contacts); default: as recorded")
+    parser.add_argument("--indent-convex", choices=("on", "off"),
+                        help="move contacts on surfaces curving away in every direction out by what the pad sank "
+                             "further on one point (LoopConfig.indent_convex_contacts); default: as recorded")
+    parser.add_argument("--point-compliance", type=float_above(0.0), metavar="MM_PER_N",
+                        help="the pad's compression on one point to indent with, mm per newton (sessions "
+                             "recorded before 2026-12-08 have none); default: as recorded")
     parser.add_argument("--symmetry", choices=("on", "off"),
                         help="mesh with the contacts' images under the mirror planes or axis of revolution they "
                              "support (LoopConfig.reconstruction_symmetry); default: as recorded")
@@ -72,12 +78,14 @@ def main(argv: list[str] | None = None) -> None:
             use_normals=False if args.no_normals else None, mesh_resolution=args.resolution,
             side_presses=None if args.side_presses is None else args.side_presses == "on",
             bridge_concave_contacts=None if args.bridge_concave is None else args.bridge_concave == "on",
+            indent_convex_contacts=None if args.indent_convex is None else args.indent_convex == "on",
+            point_compliance_m_per_n=None if args.point_compliance is None else args.point_compliance * 1e-3,
             reconstruction_symmetry=None if args.symmetry is None else args.symmetry == "on")
         result = replay(args.session, settings, args.out)
     except (ValueError, FileNotFoundError) as err:  # a bad setting, or a session that cannot be replayed
         parser.error(str(err))
     keys = ("touches", "contacts", "misses", "realign", "no_normal", "same_press", "recorded_contacts",
-            "reconstruction_symmetry", "position_rmse_mm", "normal_rmse_deg", "notes")
+            "indented_contacts", "reconstruction_symmetry", "position_rmse_mm", "normal_rmse_deg", "notes")
     print(json.dumps({k: result.metrics.get(k) for k in keys}, indent=2))
     print(f"outputs in {args.out}")
 

@@ -5,6 +5,7 @@ import pytest
 
 from explorer.evidence import SurfaceEvidence
 from reconstruction.gpis import GPIS
+from sensor.pad_calibration import PadCalibration
 
 BOUNDS = (np.full(3, -0.1), np.full(3, 0.1))
 POINTS = np.array([[0.04, 0.0, 0.0], [0.0, 0.04, 0.0], [0.0, 0.0, 0.04], [-0.04, 0.0, 0.0]])
@@ -241,7 +242,7 @@ def test_the_reconstruction_tightens_a_doubtful_contact_on_a_thin_wall_and_the_l
     loop_field = config.evidence(GPIS(bounds=BOUNDS))
     for record in records:
         loop_field.add_touch(record, config.doubtful_normal_noise)
-    field, rows = config.reconstruction_field(loop_field.gpis, records, 0.009)
+    field, rows = config.reconstruction_field(loop_field.gpis, records, PadCalibration())
     assert rows == 0 and not loop_field.gpis.opposing_overrides_floor
     undoubted = GPIS(bounds=BOUNDS)
     undoubted.add(top, up)
@@ -249,11 +250,11 @@ def test_the_reconstruction_tightens_a_doubtful_contact_on_a_thin_wall_and_the_l
     x = _queries()
     np.testing.assert_allclose(field.mean(x), undoubted.mean(x), rtol=0, atol=1e-9)
     legacy_config = replace(config, reconstruction_tightens_doubtful=False, reconstruction_doubtful_normal_noise=None)
-    legacy, _ = legacy_config.reconstruction_field(loop_field.gpis, records, 0.009)
+    legacy, _ = legacy_config.reconstruction_field(loop_field.gpis, records, PadCalibration())
     np.testing.assert_allclose(legacy.mean(x), loop_field.gpis.mean(x), rtol=0, atol=1e-12)
     assert np.max(np.abs(legacy.mean(x) - field.mean(x))) > 1e-4
     floor_only, _ = replace(legacy_config, reconstruction_doubtful_normal_noise=0.3).reconstruction_field(
-        loop_field.gpis, records, 0.009)
+        loop_field.gpis, records, PadCalibration())
     direct = GPIS(bounds=BOUNDS)
     direct.add(top, up)
     direct.add(bottom, down, normal_noise=0.3)
@@ -279,12 +280,12 @@ def test_the_reconstruction_tightens_both_faces_of_a_thin_wall_whichever_was_tou
     loop_field = config.evidence(GPIS(bounds=BOUNDS))
     for record in records:
         loop_field.add_touch(record, config.doubtful_normal_noise)
-    field, rows = config.reconstruction_field(loop_field.gpis, records, 0.009)
+    field, rows = config.reconstruction_field(loop_field.gpis, records, PadCalibration())
     assert rows == 0 and loop_field.gpis.opposing_gradient_gain == 1.0
     x = _queries()
     once = GPIS(bounds=BOUNDS, opposing_gradient_gain=config.reconstruction_wall_gain).fit(
         np.array([top, bottom]), np.array([up, down]))
     np.testing.assert_allclose(field.mean(x), once.mean(x), rtol=0, atol=1e-9)
     assert np.max(np.abs(field.mean(x) - loop_field.gpis.mean(x))) > 1e-4
-    legacy, _ = replace(config, reconstruction_wall_gain=None).reconstruction_field(loop_field.gpis, records, 0.009)
+    legacy, _ = replace(config, reconstruction_wall_gain=None).reconstruction_field(loop_field.gpis, records, PadCalibration())
     np.testing.assert_allclose(legacy.mean(x), loop_field.gpis.mean(x), rtol=0, atol=1e-12)

@@ -257,9 +257,9 @@ def test_the_reconstruction_holds_the_swept_line_firmer_than_the_loops_free_spac
     loop = ExplorationLoop(rig, FakePlanner(rig.positioner), ScriptedStrategy([]), GPIS(bounds=rig.prior.bounds()),
                            config)
     loop.restore([first, second])
-    firm, rows = config.reconstruction_field(loop.gpis, loop.records, rig.pad.half_width_m)
+    firm, rows = config.reconstruction_field(loop.gpis, loop.records, rig.pad)
     legacy_config = replace(config, reconstruction_free_space_noise=None)
-    legacy, legacy_rows = legacy_config.reconstruction_field(loop.gpis, loop.records, rig.pad.half_width_m)
+    legacy, legacy_rows = legacy_config.reconstruction_field(loop.gpis, loop.records, rig.pad)
     assert rows == legacy_rows > 0   # the same gate, the same points
     line = second.swept_points(-config.free_space_value)
     solid = loop.gpis.mean(line) > config.free_space_value
@@ -267,7 +267,7 @@ def test_the_reconstruction_holds_the_swept_line_firmer_than_the_loops_free_spac
     same, _ = with_swept_free_space(loop.gpis, loop.records, config.free_space_value, config.free_space_noise)
     points = np.random.default_rng(1).uniform(*loop.gpis.bounds, size=(50, 3))
     np.testing.assert_allclose(legacy.mean(points), same.mean(points), rtol=0, atol=1e-12)
-    off, off_rows = replace(config, swept_free_space=False).reconstruction_field(loop.gpis, loop.records, rig.pad.half_width_m)
+    off, off_rows = replace(config, swept_free_space=False).reconstruction_field(loop.gpis, loop.records, rig.pad)
     assert off is loop.gpis and off_rows == 0
 
 
@@ -289,7 +289,7 @@ def test_the_reconstruction_offers_the_misses_free_space_through_the_gate_instea
                            config)
     loop.restore([first, second, miss])
     assert loop.gpis.n_rows == 8 + len(line)
-    field, rows = config.reconstruction_field(loop.gpis, loop.records, rig.pad.half_width_m)
+    field, rows = config.reconstruction_field(loop.gpis, loop.records, rig.pad)
     assert loop.gpis.n_rows == 8 + len(line)   # the loop's field is left as it is
     contacts_only = config.evidence(GPIS(bounds=rig.prior.bounds()))
     for record in (first, second):
@@ -300,7 +300,7 @@ def test_the_reconstruction_offers_the_misses_free_space_through_the_gate_instea
     points = np.random.default_rng(2).uniform(*loop.gpis.bounds, size=(100, 3))
     np.testing.assert_allclose(field.mean(points), direct.mean(points), rtol=0, atol=1e-12)
     legacy_config = replace(config, reconstruction_gates_misses=False)
-    legacy, legacy_rows = legacy_config.reconstruction_field(loop.gpis, loop.records, rig.pad.half_width_m)
+    legacy, legacy_rows = legacy_config.reconstruction_field(loop.gpis, loop.records, rig.pad)
     same, same_rows = with_swept_free_space(loop.gpis, loop.records, config.free_space_value,
                                             config.reconstruction_free_space_noise)
     assert legacy_rows == same_rows and legacy.n_rows == 8 + len(line) + same_rows

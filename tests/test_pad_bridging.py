@@ -12,8 +12,10 @@ from explorer.pad_bridging import PadBridging
 from explorer.replay import ReplaySettings, SessionReplay
 from explorer.touch import TouchOutcome
 from reconstruction.gpis import GPIS
+from sensor.pad_calibration import PadCalibration
 
 HALF_WIDTH_M = 0.009
+PAD = PadCalibration(half_width_m=HALF_WIDTH_M)  # no point compliance: no indentation
 REACH_M = np.sqrt(2.0) * HALF_WIDTH_M
 
 
@@ -77,21 +79,21 @@ def test_the_reconstruction_takes_bridged_contacts_only_with_normals_and_the_set
     records = [TouchOutcome(i, "contact", p + 0.02 * n, -n, position_m=p, normal=n)
                for i, (p, n) in enumerate(zip(points, normals))]
     config = LoopConfig(swept_free_space=False)
-    moved, count = config.reconstruction_records(records, HALF_WIDTH_M)
+    moved, count, _ = config.reconstruction_records(records, PAD)
     assert count > 0
-    assert config.reconstruction_records(records, HALF_WIDTH_M, use_normals=False) == (records, 0)
+    assert config.reconstruction_records(records, PAD, use_normals=False) == (records, 0, 0)
     off = LoopConfig(swept_free_space=False, bridge_concave_contacts=False)
-    assert off.reconstruction_records(records, HALF_WIDTH_M) == (records, 0)
+    assert off.reconstruction_records(records, PAD) == (records, 0, 0)
 
     bounds = [[-0.08, -0.08, -0.08], [0.08, 0.08, 0.08]]
     live = config.evidence(GPIS(bounds=bounds))
     for record in records:
         live.add_contact(record.position_m, record.normal)
-    field, rows = config.reconstruction_field(live.gpis, records, HALF_WIDTH_M)
+    field, rows = config.reconstruction_field(live.gpis, records, PAD)
     assert rows == 0 and field is not live.gpis
     np.testing.assert_allclose(field.contact_points, [r.position_m for r in moved])
     np.testing.assert_allclose(live.gpis.contact_points, points)   # the loop's field as measured
-    assert off.reconstruction_field(live.gpis, records, HALF_WIDTH_M)[0] is live.gpis
+    assert off.reconstruction_field(live.gpis, records, PAD)[0] is live.gpis
 
 
 def test_replay_bridges_as_recorded_and_sessions_before_the_setting_do_not(recorded_sphere_run, tmp_path):

@@ -13,9 +13,11 @@ from explorer.rim_standoff import RimStandoff
 from explorer.touch import TouchOutcome
 from reconstruction.gpis import GPIS
 from reconstruction.synthetic_contacts import sphere_contacts
+from sensor.pad_calibration import PadCalibration
 
 RADIUS_M = 0.05
 HALF_WIDTH_M = 0.009
+PAD = PadCalibration(half_width_m=HALF_WIDTH_M)  # no point compliance: no indentation
 BOUNDS = ((-0.09, -0.09, -0.09), (0.09, 0.09, 0.09))
 
 
@@ -82,21 +84,21 @@ def test_the_reconstruction_leaves_the_standing_off_contact_out_and_counts_it():
     normals = np.vstack([normals, _turned(direction, np.radians(65.0))])
     config, records, live = _loop_inputs(points, normals)
 
-    built = config.reconstruction(live.gpis, records, HALF_WIDTH_M)
+    built = config.reconstruction(live.gpis, records, PAD)
     assert built.rim_standoff_touches == (60,)
     assert built.field.n_contacts == 60 and live.gpis.n_contacts == 61  # the loop's field as measured
     np.testing.assert_allclose(built.field.contact_points, points[:60])
     on_surface = direction * RADIUS_M
     assert abs(built.field.mean(on_surface[None])[0]) < abs(live.gpis.mean(on_surface[None])[0])
 
-    off = replace(config, reconstruction_sets_aside_rim_standoffs=False).reconstruction(live.gpis, records, HALF_WIDTH_M)
+    off = replace(config, reconstruction_sets_aside_rim_standoffs=False).reconstruction(live.gpis, records, PAD)
     assert off.rim_standoff_touches == () and off.field is live.gpis
 
     # The press must say the pad met the surface near its centre: a doubtful contact (placed at the
     # rim already), a spring turned far, or no quality at all keep the contact.
     for quality in (replace(CENTRED, doubtful=True), replace(CENTRED, tilt_rad=float(np.radians(30.0))), None):
         kept = records[:60] + [replace(records[60], quality=quality)]
-        assert config.reconstruction(live.gpis, kept, HALF_WIDTH_M).rim_standoff_touches == ()
+        assert config.reconstruction(live.gpis, kept, PAD).rim_standoff_touches == ()
 
 
 @pytest.mark.parametrize("field, value", [("min_depth_m", 0.0), ("min_angle_rad", 0.0), ("min_angle_rad", 4.0),
@@ -131,10 +133,10 @@ def test_a_contact_hidden_by_a_standing_off_neighbour_is_found_in_the_next_round
     normals = np.vstack([normals, _turned(first, np.radians(80.0)), _turned(second, np.radians(65.0))])
     config, records, live = _loop_inputs(points, normals)
 
-    built = config.reconstruction(live.gpis, records, HALF_WIDTH_M)
+    built = config.reconstruction(live.gpis, records, PAD)
     assert built.rim_standoff_touches == (60, 61) and built.field.n_contacts == 60
     monkeypatch.setattr(explorer.loop, "RIM_STANDOFF_ROUNDS", 1)
-    assert config.reconstruction(live.gpis, records, HALF_WIDTH_M).rim_standoff_touches == (60,)
+    assert config.reconstruction(live.gpis, records, PAD).rim_standoff_touches == (60,)
 
 
 def test_the_contacts_error_over_those_kept_leaves_out_the_set_aside_ones_and_only_them():
