@@ -26,6 +26,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from explorer.neighbour_curvature import neighbour_curvatures
+
 
 @dataclass(frozen=True)
 class PadBridging:
@@ -64,24 +66,12 @@ class PadBridging:
             Distance from the pad face's centre to the farthest point of its face that can meet the
             surface (half the diagonal of a square pad), metres.
         """
-        from scipy.spatial import cKDTree
-
-        points = np.asarray(points, float).reshape(-1, 3)
-        normals = np.asarray(normals, float).reshape(-1, 3)
-        heights = np.zeros(len(points))
-        if len(points) <= self.min_neighbours:
+        heights = np.zeros(len(np.asarray(points).reshape(-1, 3)))
+        if len(heights) <= self.min_neighbours:
             return heights
-        for i, near in enumerate(cKDTree(points).query_ball_point(points, self.neighbour_radius_m)):
-            near = np.array([j for j in near if j != i], int)
-            if len(near):
-                step = points[near] - points[i]
-                gap2 = np.einsum("ij,ij->i", step, step)
-                near = near[(normals[near] @ normals[i] > self.same_side_cosine) & (gap2 > 1e-6)]  # 1 mm apart at least
-            if len(near) < self.min_neighbours:
-                continue
-            step = points[near] - points[i]
-            curvature = -np.einsum("ij,ij->i", normals[near] - normals[i], step) / np.einsum("ij,ij->i", step, step)
-            heights[i] = 0.5 * pad_reach_m**2 * float(np.percentile(curvature, self.quantile))
+        for i, _, convex in neighbour_curvatures(points, normals, self.neighbour_radius_m, self.same_side_cosine):
+            if len(convex) >= self.min_neighbours:
+                heights[i] = 0.5 * pad_reach_m**2 * float(np.percentile(-convex, self.quantile))
         return np.clip(heights, 0.0, self.max_height_m)
 
     def apply(self, records: list, pad_half_width_m: float) -> tuple[list, int]:

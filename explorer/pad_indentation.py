@@ -25,9 +25,9 @@ the least curvature with 6 mm (4.5, 6 and 9 mm tried; BENCHMARKS.md, "A pad on a
 deeper").
 
 ``kappa`` is read from the neighbouring contacts' measured normals as in
-:mod:`explorer.pad_bridging`: ``kappa_ij = (n_j - n_i) . (p_j - p_i) / |p_j - p_i|^2`` is the
-surface's curvature along the line to neighbour ``j`` (positive where the normals diverge:
-convex). By Euler's theorem it is ``t^T S t`` for the line's unit direction ``t`` in the tangent
+:mod:`explorer.pad_bridging`: the curvature ``kappa_ij`` along the line to neighbour ``j``
+(:mod:`explorer.neighbour_curvature`, convex positive). By Euler's theorem it is ``t^T S t`` for
+the line's unit direction ``t`` in the tangent
 plane and the surface's 2 x 2 shape operator ``S``, fitted to the neighbours by least squares; its
 smaller eigenvalue is the least curvature. A cylinder's, a plane's and a saddle's is about zero or
 below, so they are left as measured.
@@ -40,7 +40,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.spatial import cKDTree
+
+from explorer.neighbour_curvature import neighbour_curvatures
 
 
 @dataclass(frozen=True)
@@ -78,24 +79,13 @@ class PadIndentation:
         normals : (n, 3) float
             Their outward unit normals, the same frame.
         """
-        points = np.asarray(points, float)
-        normals = np.asarray(normals, float)
-        out = np.zeros(len(points))
-        if len(points) < 2:
-            return out
-        tree = cKDTree(points)
-        for i, near in enumerate(tree.query_ball_point(points, self.neighbour_radius_m)):
-            near = np.asarray([j for j in near if j != i], int)
-            if len(near) == 0:
+        out = np.zeros(len(np.asarray(points).reshape(-1, 3)))
+        normals = np.asarray(normals, float).reshape(-1, 3)
+        for i, step, kappa in neighbour_curvatures(points, normals, self.neighbour_radius_m, self.same_side_cosine):
+            if len(kappa) < self.min_neighbours:
                 continue
-            near = near[normals[near] @ normals[i] > self.same_side_cosine]
-            if len(near) < self.min_neighbours:
-                continue
-            offsets = points[near] - points[i]
-            squared = np.einsum("ij,ij->i", offsets, offsets)
-            kappa = np.einsum("ij,ij->i", normals[near] - normals[i], offsets) / squared
             u, v = _tangent_basis(normals[i])
-            tu, tv = offsets @ u, offsets @ v
+            tu, tv = step @ u, step @ v
             length = np.hypot(tu, tv)
             keep = length > 1e-9
             tu, tv = tu[keep] / length[keep], tv[keep] / length[keep]
