@@ -50,11 +50,9 @@ class PadIndentation:
 
     Attributes
     ----------
-    neighbour_radius_m : float
-        Contacts within this distance of a contact read its surface's curvature, metres.
-    same_side_cosine : float
-        Only neighbours whose normal is within ``arccos`` of this of the contact's (the other side
-        of a thin wall is not a neighbour).
+    neighbour_radius_m, same_side_cosine : float
+        Which neighbours read a contact's curvature, metres and a cosine: as for
+        :class:`explorer.pad_bridging.PadBridging`.
     min_neighbours : int
         Fewer neighbours than this: no correction (the shape operator has three unknowns).
     bearing_radius_m : float

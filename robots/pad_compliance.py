@@ -66,12 +66,8 @@ def measure_pad_compliance_m_per_n(spec) -> float:
 def measure_pad_point_compliance_m_per_n(spec) -> float:
     """The pad's compression per newton on a ball, where the face bears on one point of a smooth body
     or on one to three vertices of a tessellated one (:data:`POINT_BALL_RADIUS_M`, head on at
-    :data:`POINT_BALL_TURNS` turns), metres per newton.
-
-    Parameters
-    ----------
-    spec : robots.spec.RobotSpec
-        The simulated robot, with the pad's contact parameters the simulation uses.
+    :data:`POINT_BALL_TURNS` turns), metres per newton; ``spec`` as for
+    :func:`measure_pad_compliance_m_per_n`.
 
     Returns
     -------
