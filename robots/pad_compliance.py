@@ -93,21 +93,14 @@ def _slope(spec, ball_turn: int | None) -> float:
     seeded rotation ``ball_turn`` (each in a world of its own: a ball re-posed under a reset arm
     did not give the same presses)."""
     from common.rotations import matrix_to_quat
-    from robots.ik import solve_pad_ik
-    from robots.kinematics import ArmKinematics
     from robots.sim_arm import SimArm
     from robots.sim_world import SimWorld
     from robots.urdf_model import Box, Link, RobotModel, Shape, to_urdf
 
-    kinematics = ArmKinematics(spec)
-    home = kinematics.forward_kinematics(spec.home_q)
-    normal = -home.z_axis  # the plate faces the pad head on
     gap = PLATE_GAP_M if ball_turn is None else BALL_GAP_M
+    home, path_q = _press_path(spec, gap)
+    normal = -home.z_axis  # the plate faces the pad head on
     face_centre = home.position_m + gap * home.z_axis
-    points = home.position_m + np.linspace(0.0, gap + PRESS_DEPTH_M, 41)[:, None] * home.z_axis
-    path = solve_pad_ik(kinematics, points, np.tile(home.z_axis, (len(points), 1)), q_seed=spec.home_q)
-    if not path.success.all():
-        raise RuntimeError(f"{spec.name}: no straight press from the home pose to measure the pad's compliance")
     frame = home.rotation @ np.diag([1.0, -1.0, -1.0])  # the pad's frame turned to face it: +z = normal
     with tempfile.TemporaryDirectory() as directory, SimWorld(table=None) as world:
         if ball_turn is None:
@@ -122,13 +115,29 @@ def _slope(spec, ball_turn: int | None) -> float:
         arm = SimArm(world, spec)
         forces, depths = [], []
         for target in PRESS_FORCES_N:
-            result = arm.guarded_move(path.q_rad, lambda: arm.pad_state().normal_force_n > target, speed_rad_s=0.02)
+            result = arm.guarded_move(path_q, lambda: arm.pad_state().normal_force_n > target, speed_rad_s=0.02)
             if not result.stopped:
                 raise RuntimeError(f"{spec.name}: the press never reached {target} N on the {name}")
             world.step(HOLD_STEPS)
             forces.append(arm.pad_state().normal_force_n)
             depths.append(-float(np.dot(arm.link_state(spec.pad_link).position_m - face_centre, normal)))
     return float((depths[1] - depths[0]) / (forces[1] - forces[0]))
+
+
+@lru_cache(maxsize=16)
+def _press_path(spec, gap_m: float):
+    """The home pose's pad frame and the joint path (k, dof) of a straight press along the pad's
+    axis from it, ``gap_m`` to the surface and :data:`PRESS_DEPTH_M` beyond (one IK per spec)."""
+    from robots.ik import solve_pad_ik
+    from robots.kinematics import ArmKinematics
+
+    kinematics = ArmKinematics(spec)
+    home = kinematics.forward_kinematics(spec.home_q)
+    points = home.position_m + np.linspace(0.0, gap_m + PRESS_DEPTH_M, 41)[:, None] * home.z_axis
+    path = solve_pad_ik(kinematics, points, np.tile(home.z_axis, (len(points), 1)), q_seed=spec.home_q)
+    if not path.success.all():
+        raise RuntimeError(f"{spec.name}: no straight press from the home pose to measure the pad's compliance")
+    return home, path.q_rad
 
 
 def _ball_urdf(directory: Path) -> Path:
