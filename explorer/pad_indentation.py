@@ -27,9 +27,8 @@ deeper").
 ``kappa`` is read from the neighbouring contacts' measured normals as in
 :mod:`explorer.pad_bridging`: the curvature ``kappa_ij`` along the line to neighbour ``j``
 (:mod:`explorer.neighbour_curvature`, convex positive). By Euler's theorem it is ``t^T S t`` for
-the line's unit direction ``t`` in the tangent
-plane and the surface's 2 x 2 shape operator ``S``, fitted to the neighbours by least squares; its
-smaller eigenvalue is the least curvature. A cylinder's, a plane's and a saddle's is about zero or
+the line's unit direction ``t`` in the tangent plane and the surface's 2 x 2 shape operator ``S``,
+fitted to the neighbours by least squares; its smaller eigenvalue is the least curvature. A cylinder's, a plane's and a saddle's is about zero or
 below, so they are left as measured.
 
 Used for the reconstruction only (``LoopConfig.indent_convex_contacts``), like the bridging: the
@@ -41,6 +40,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from common.directions import perpendicular_frame
 from explorer.neighbour_curvature import neighbour_curvatures
 
 
@@ -77,13 +77,15 @@ class PadIndentation:
         normals : (n, 3) float
             Their outward unit normals, the same frame.
         """
-        out = np.zeros(len(np.asarray(points).reshape(-1, 3)))
         normals = np.asarray(normals, float).reshape(-1, 3)
+        out = np.zeros(len(normals))
+        if len(normals) == 0:
+            return out
+        first, second = perpendicular_frame(normals)   # each contact's tangent plane
         for i, step, kappa in neighbour_curvatures(points, normals, self.neighbour_radius_m, self.same_side_cosine):
             if len(kappa) < self.min_neighbours:
                 continue
-            u, v = _tangent_basis(normals[i])
-            tu, tv = step @ u, step @ v
+            tu, tv = step @ first[i], step @ second[i]
             length = np.hypot(tu, tv)
             keep = length > 1e-9
             tu, tv = tu[keep] / length[keep], tv[keep] / length[keep]
@@ -135,10 +137,3 @@ class PadIndentation:
                 out[i] = replace(records[i], position_m=points[k] + depths[k] * normals[k])
         return out, int(np.count_nonzero(depths))
 
-
-def _tangent_basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors (3,) spanning the plane perpendicular to the unit ``normal``."""
-    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = np.cross(normal, helper)
-    u /= np.linalg.norm(u)
-    return u, np.cross(normal, u)
